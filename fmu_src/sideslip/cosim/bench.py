@@ -1,0 +1,76 @@
+"""Benchmark: microseconds per communication step of every FMU in fmpy, and the closed-loop speed.
+
+Each FMU is timed inside a real closed loop (driver, plant, sensors and, for estimators and
+controllers, the FMU under test) with the master's profiler: the time to set its inputs,
+``doStep`` and get its outputs, averaged over 100-step blocks; the figure is the median over
+blocks.  The closed-loop real-time factor is measured in a separate, unprofiled run of
+driver + plant + sensors.
+"""
+from __future__ import annotations
+
+import statistics
+
+from ..fmi.build import DEFAULT_OUT
+from ..fmi.registry import fmu_names
+from .master import CoSimulation
+from .runner import scenario_components
+from .scenarios import get_scenario
+
+__all__ = ["run_bench", "format_bench"]
+
+BENCH_SCENARIO = "park2018_case2"
+
+
+def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEFAULT_OUT, repeats: int = 3) -> dict:
+    """Benchmark every registered FMU and the driver + plant + sensors loop.
+
+    Returns
+    -------
+    dict
+        ``{"scenario", "step", "fmus": {name: {"median_us", "p90_us"}}, "closed_loop": {...}}``.
+    """
+    sc = get_scenario(scenario)
+    step = 1e-3
+    out = {"scenario": scenario, "step": step, "duration": duration, "fmus": {}, "closed_loop": {}}
+    # closed loop, unprofiled: best of `repeats` runs (the machine is shared)
+    rtfs = []
+    for _ in range(repeats):
+        comps, conns = scenario_components(sc)
+        with CoSimulation(comps, conns, step=step, fmu_dir=fmu_dir) as sim:
+            res = sim.run(duration)
+        rtfs.append(res.meta["real_time_factor"])
+    best = max(rtfs)
+    out["closed_loop"] = {"components": [c.name for c in comps], "real_time_factor": best,
+                          "us_per_step": step / best * 1e6, "all_real_time_factors": rtfs}
+    # per FMU, profiled inside the loop
+    timed = {}
+    comps, conns = scenario_components(sc)
+    with CoSimulation(comps, conns, step=step, fmu_dir=fmu_dir) as sim:
+        prof = sim.run(duration, profile=True).meta["profile"]
+    for comp in comps:
+        timed[comp.fmu] = prof[comp.name]
+    for role in ("estimator", "controller"):
+        for name in fmu_names(role):
+            comps, conns = scenario_components(sc, [name] if role == "estimator" else [],
+                                               name if role == "controller" else None)
+            with CoSimulation(comps, conns, step=step, fmu_dir=fmu_dir) as sim:
+                prof = sim.run(duration, profile=True).meta["profile"]
+            timed[name] = prof[name if role == "estimator" else "controller"]
+    for name, blocks in timed.items():
+        blocks = sorted(blocks)
+        out["fmus"][name] = {"median_us": statistics.median(blocks),
+                             "p90_us": blocks[int(0.9 * (len(blocks) - 1))]}
+    return out
+
+
+def format_bench(b: dict) -> str:
+    """Text table of :func:`run_bench` results."""
+    lines = [f"benchmark: scenario {b['scenario']}, communication step {b['step'] * 1e3:g} ms, "
+             f"{b['duration']:g} s simulated per measurement", "",
+             f"{'FMU':24s} {'median us/step':>15s} {'p90 us/step':>12s}"]
+    for name, m in b["fmus"].items():
+        lines.append(f"{name:24s} {m['median_us']:15.1f} {m['p90_us']:12.1f}")
+    cl = b["closed_loop"]
+    lines += ["", f"closed loop {' + '.join(cl['components'])}: {cl['us_per_step']:.1f} us/step, "
+                  f"{cl['real_time_factor']:.1f}x real time (best of {len(cl['all_real_time_factors'])})"]
+    return "\n".join(lines)

@@ -1,0 +1,149 @@
+"""Command line: ``python -m sideslip {list,run,bench,demo,build}``.
+
+``run`` writes ``DIR/results.csv``, ``DIR/metrics.json`` and ``DIR/sideslip.png`` and prints
+a metrics table; ``demo`` is ``run`` on a default scenario with every registered estimator;
+``bench`` prints microseconds per communication step per FMU and the closed-loop real-time
+factor.  FMUs are built on first use (``build/fmus``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+__all__ = ["main"]
+
+DEMO_SCENARIO = "park2018_case2"
+
+
+def _kv(items, what):
+    out = {}
+    for item in items or []:
+        if "=" not in item:
+            raise SystemExit(f"{what}: expected key=value, got {item!r}")
+        k, v = item.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out
+
+
+def _cmd_list(args) -> int:
+    from ..fmi.registry import fmu_entries
+    from ..plant.maneuvers import maneuver_names
+    from ..vehicles import vehicle_names
+    from .scenarios import SCENARIOS, get_scenario, scenario_names
+
+    print("scenarios:")
+    for name in scenario_names():
+        if name.startswith("fmvss126") and name not in SCENARIOS:
+            print(f"  {name:34s} (FMVSS 126 family; A computed on first use)")
+            continue
+        sc = get_scenario(name)
+        print(f"  {name:34s} {sc.vehicle:16s} {sc.duration:6.0f} s  {sc.description}  [{sc.source}]")
+    print("\nFMUs:")
+    for name, e in sorted(fmu_entries().items(), key=lambda kv: (kv[1].role, kv[0])):
+        print(f"  {name:24s} {e.role:11s} {len(e.inputs):3d} inputs {len(e.outputs):3d} outputs")
+    print("\nvehicles:  " + ", ".join(vehicle_names()))
+    print("maneuvers: " + ", ".join(maneuver_names()))
+    return 0
+
+
+def _run(args, estimators, out_dir) -> int:
+    from .runner import run_scenario
+
+    def progress(frac):
+        print(f"\r  {frac * 100:5.1f} %", end="", file=sys.stderr, flush=True)
+
+    controller = None if args.controller in (None, "none") else args.controller
+    print(f"running {args.scenario}" + (f" with {', '.join(estimators)}" if estimators else "")
+          + (f", controller {controller}" if controller else "") + f" -> {out_dir}", file=sys.stderr)
+    run = run_scenario(args.scenario, estimators, controller, out_dir=out_dir, duration=args.duration,
+                       step=args.step, record_every=args.record_every, fmu_dir=args.fmu_dir,
+                       params=_kv(args.param, "--param"), overrides=_kv(args.set, "--set"),
+                       progress=progress if sys.stderr.isatty() else None)
+    print("", file=sys.stderr)
+    m = run.metrics
+    s = m["summary"]
+    print(f"scenario {m['scenario']['name']}: {m['scenario']['description']}")
+    print(f"  truth: max |beta| {s['max_abs_beta_deg']:.2f} deg, max |ay| {s['max_abs_ay']:.2f} m/s2, "
+          f"max |yaw rate| {s['max_abs_yaw_rate_deg_s']:.1f} deg/s, final speed {s['final_speed']:.2f} m/s")
+    print(f"  {m['us_per_step']:.1f} us per step, {m['real_time_factor']:.1f}x real time "
+          f"({m['simulation_wall_time']:.1f} s wall)")
+    if run.table():
+        print()
+        print(run.table())
+    warnings = [msg for msg in m["messages"] if msg.startswith(("[warning]", "[error]"))]
+    if warnings:
+        print("\nFMU messages:")
+        for msg in warnings[:20]:
+            print("  " + msg)
+    print(f"\nwrote {Path(out_dir) / 'results.csv'}, metrics.json, sideslip.png")
+    return 0
+
+
+def _cmd_run(args) -> int:
+    out = args.out or str(Path("out") / args.scenario)
+    return _run(args, args.estimator or [], out)
+
+
+def _cmd_demo(args) -> int:
+    from ..fmi.registry import fmu_names
+
+    args.scenario = args.scenario or DEMO_SCENARIO
+    return _run(args, fmu_names("estimator"), args.out or str(Path("out") / "demo"))
+
+
+def _cmd_bench(args) -> int:
+    from .bench import format_bench, run_bench
+
+    b = run_bench(duration=args.duration, fmu_dir=args.fmu_dir)
+    print(json.dumps(b, indent=2) if args.json else format_bench(b))
+    return 0
+
+
+def _cmd_build(args) -> int:
+    from ..fmi.build import build_fmus
+
+    build_fmus(args.names or None, args.fmu_dir, force=args.force)
+    return 0
+
+
+def main(argv=None) -> int:
+    """Entry point of ``python -m sideslip`` and the ``sideslip`` console script."""
+    from ..fmi.build import DEFAULT_OUT
+
+    p = argparse.ArgumentParser(prog="python -m sideslip", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--fmu-dir", default=str(DEFAULT_OUT), help="folder of the built FMUs (default %(default)s)")
+    sub = p.add_subparsers(dest="cmd", required=True)
+    sub.add_parser("list", help="scenarios, FMUs, vehicles, maneuvers")
+
+    def run_args(sp, scenario_required):
+        sp.add_argument("--scenario", required=scenario_required, help="scenario name (see list)")
+        sp.add_argument("--controller", default="none", help="controller FMU or 'none'")
+        sp.add_argument("--out", help="output folder (default out/<scenario>)")
+        sp.add_argument("--duration", type=float, help="simulated time [s] (default: the scenario's)")
+        sp.add_argument("--step", type=float, default=1e-3, help="communication step [s] (default 1e-3)")
+        sp.add_argument("--record-every", type=int, default=1, help="record every n-th step")
+        sp.add_argument("--set", action="append", metavar="KEY=VALUE",
+                        help="scenario override: duration, road_mu, maneuver_<key>, sensor_<key>, ...")
+        sp.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE", help="FMU parameter override")
+
+    run = sub.add_parser("run", help="run a scenario in closed loop")
+    run_args(run, True)
+    run.add_argument("--estimator", action="append", help="estimator FMU (repeatable)")
+    demo = sub.add_parser("demo", help=f"run {DEMO_SCENARIO} with every estimator, print metrics, write a plot")
+    run_args(demo, False)
+    bench = sub.add_parser("bench", help="microseconds per step per FMU and closed-loop real-time factor")
+    bench.add_argument("--json", action="store_true")
+    bench.add_argument("--duration", type=float, default=5.0, help="simulated seconds per measurement")
+    build = sub.add_parser("build", help="build the FMUs")
+    build.add_argument("names", nargs="*")
+    build.add_argument("--force", action="store_true")
+    args = p.parse_args(argv)
+    try:
+        return {"list": _cmd_list, "run": _cmd_run, "demo": _cmd_demo, "bench": _cmd_bench,
+                "build": _cmd_build}[args.cmd](args)
+    except (KeyError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2

@@ -1,0 +1,145 @@
+"""Run a named scenario in closed loop: driver, plant, sensors, estimators, controller.
+
+Estimators and controllers are FMUs of the registry (``role = "estimator"`` /
+``"controller"``); each receives the scenario's vehicle and every scenario hint that matches
+one of its parameters (``Ts``, ``mu``, ...), so adding an estimator to a run is naming it.
+When several estimators run, the first one feeds the controller unless told otherwise.
+"""
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..fmi.build import DEFAULT_OUT
+from ..fmi.registry import fmu_entry, fmu_names
+from ..params import declared_fields
+from .master import Component, CoSimulation, Results
+from .metrics import estimate_metrics, format_table, scenario_summary
+from .scenarios import Scenario, get_scenario
+
+__all__ = ["scenario_components", "run_scenario", "RunOutput"]
+
+PLANT, SENSORS, DRIVER = "VehiclePlant", "VehicleSensors", "ManeuverDriver"
+
+
+def _auto_params(fmu: str, scenario: Scenario) -> dict:
+    """Parameters an estimator/controller FMU takes from the scenario (vehicle and hints)."""
+    names = {f.name for f, _ in declared_fields(fmu_entry(fmu).slave_class.config_class)}
+    params = {"vehicle": scenario.vehicle} if "vehicle" in names else {}
+    if "vehicle_overrides" in names and scenario.vehicle_overrides:
+        params["vehicle_overrides"] = scenario.vehicle_overrides
+    params.update({k: v for k, v in scenario.hints.items() if k in names})
+    return params
+
+
+def scenario_components(scenario: Scenario, estimators=(), controller: str | None = None,
+                        params: dict | None = None, control_source: str | None = None):
+    """Components and explicit connections of a scenario run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    estimators : iterable of str
+        Estimator FMU names (instance name = FMU name).
+    controller : str, optional
+        Controller FMU name (instance ``controller``).
+    params : dict, optional
+        ``{"instance.parameter": value}`` overrides of FMU parameters.
+    control_source : str, optional
+        Estimator instance feeding the controller (default: the first).
+
+    Returns
+    -------
+    list of Component, list of (str, str)
+    """
+    estimators = list(estimators)
+    known = set(fmu_names("estimator"))
+    for e in estimators:
+        if e not in known:
+            raise KeyError(f"unknown estimator {e!r}; estimators: {', '.join(sorted(known)) or 'none yet'}")
+    comps = [Component(DRIVER, "driver", scenario.driver_params()),
+             Component(PLANT, "plant", scenario.plant_params()),
+             Component(SENSORS, "sensors", scenario.sensor_params())]
+    comps += [Component(e, e, _auto_params(e, scenario)) for e in estimators]
+    connections = []
+    if controller:
+        if controller not in fmu_names("controller"):
+            raise KeyError(f"unknown controller {controller!r}; controllers: {', '.join(fmu_names('controller'))}")
+        comps.append(Component(controller, "controller", _auto_params(controller, scenario)))
+        source = control_source or (estimators[0] if estimators else None)
+        inputs = set(fmu_entry(controller).inputs)
+        if source is not None and len(estimators) > 1:
+            for name in inputs & set(fmu_entry(source).outputs):
+                connections.append((f"{source}.{name}", f"controller.{name}"))
+    for key, value in (params or {}).items():
+        inst, _, name = key.partition(".")
+        match = [c for c in comps if c.name == inst]
+        if not match or not name:
+            raise KeyError(f"parameter override {key!r}: use <instance>.<parameter> with instance one of "
+                           + ", ".join(c.name for c in comps))
+        match[0].parameters[name] = value
+    return comps, connections
+
+
+@dataclass
+class RunOutput:
+    """Results of :func:`run_scenario` and the metrics written to ``metrics.json``."""
+
+    results: Results
+    metrics: dict
+
+    def table(self) -> str:
+        """Metrics table of the estimators (empty string without estimators)."""
+        return format_table(self.metrics["estimators"]) if self.metrics["estimators"] else ""
+
+
+def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None = None,
+                 out_dir: str | Path | None = None, duration: float | None = None, step: float = 1e-3,
+                 record_every: int = 1, fmu_dir: str | Path = DEFAULT_OUT, params: dict | None = None,
+                 overrides: dict | None = None, control_source: str | None = None, progress=None) -> RunOutput:
+    """Run a scenario and (optionally) write ``results.csv``, ``metrics.json``, ``sideslip.png``.
+
+    Parameters
+    ----------
+    scenario : str or Scenario
+        Registry name or object.
+    estimators, controller, params, control_source
+        See :func:`scenario_components`.
+    out_dir : path, optional
+        Where to write the files; nothing is written when omitted.
+    duration : float, optional
+        Overrides the scenario duration [s].
+    step : float
+        Communication step [s].
+    record_every : int
+        Record every n-th step.
+    overrides : dict, optional
+        Scenario overrides (``maneuver_<key>``, ``sensor_<key>``, fields).
+    """
+    sc = get_scenario(scenario, **(overrides or {})) if isinstance(scenario, str) else scenario
+    comps, conns = scenario_components(sc, estimators, controller, params, control_source)
+    t0 = time.perf_counter()
+    with CoSimulation(comps, conns, step=step, record_every=record_every, fmu_dir=fmu_dir) as sim:
+        res = sim.run(duration if duration is not None else sc.duration, progress=progress)
+    wall = time.perf_counter() - t0
+    metrics = {"scenario": {"name": sc.name, "description": sc.description, "source": sc.source,
+                            "vehicle": sc.vehicle, "maneuver": sc.maneuver, "road_mu": sc.road_mu,
+                            "road_bank": sc.road_bank, "notes": list(sc.notes)},
+               "summary": scenario_summary(res),
+               "estimators": {e: estimate_metrics(res, e) for e in estimators},
+               "wall_time": wall, "simulation_wall_time": res.meta["wall_time"],
+               "real_time_factor": res.meta["real_time_factor"], "us_per_step": res.meta["us_per_step"],
+               "step": step, "components": res.meta["components"], "connections": res.meta["connections"],
+               "unconnected_inputs": res.meta["unconnected_inputs"],
+               "messages": res.meta["messages"][:200]}
+    if out_dir is not None:
+        from .plots import plot_sideslip
+
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        res.to_csv(out / "results.csv")
+        (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+        plot_sideslip(res, list(estimators), out / "sideslip.png", title=f"{sc.name}: {sc.description}")
+    return RunOutput(res, metrics)

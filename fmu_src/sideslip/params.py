@@ -1,0 +1,226 @@
+"""Declared, validated parameters: one mechanism for configs, FMU parameters and error messages.
+
+A configuration is a frozen dataclass whose fields are declared with :func:`param`
+(default, quantity, description, allowed range).  :func:`check` validates every declared
+field and raises :class:`ParameterError` naming the parameter, its value and the allowed
+range; the FMU toolkit declares FMU parameters from the same fields, so the range in the
+modelDescription and the one in the error message cannot disagree.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Iterable, Mapping
+
+from .units import QUANTITIES
+
+__all__ = ["ParamInfo", "ParameterError", "param", "check", "declared_fields", "build",
+           "parse_assignments", "describe_range"]
+
+
+class ParameterError(ValueError):
+    """A parameter value outside its allowed set.
+
+    Parameters
+    ----------
+    name : str
+        Parameter name as the user sets it (e.g. ``"vehicle.m"`` or ``"Ts"``).
+    value : object
+        The offending value.
+    allowed : str
+        Human-readable allowed range or set, with unit.
+    """
+
+    def __init__(self, name: str, value: Any, allowed: str):
+        self.name, self.value, self.allowed = name, value, allowed
+        super().__init__(f"parameter '{name}' = {value!r} is invalid; allowed: {allowed}")
+
+
+@dataclass(frozen=True)
+class ParamInfo:
+    """Declaration attached to a dataclass field by :func:`param`."""
+
+    quantity: str
+    description: str
+    ge: float | None = None
+    gt: float | None = None
+    le: float | None = None
+    lt: float | None = None
+    choices: tuple | None = None
+    tunable: bool = False
+    fmu: bool = True
+
+    @property
+    def unit(self) -> str:
+        return QUANTITIES[self.quantity]
+
+    @property
+    def min(self) -> float:
+        """Lower bound for the modelDescription (``-inf`` when unbounded)."""
+        lo = self.ge if self.ge is not None else self.gt
+        return -math.inf if lo is None else float(lo)
+
+    @property
+    def max(self) -> float:
+        """Upper bound for the modelDescription (``inf`` when unbounded)."""
+        hi = self.le if self.le is not None else self.lt
+        return math.inf if hi is None else float(hi)
+
+
+def param(default, quantity: str = "Dimensionless", description: str = "", *, ge=None, gt=None,
+          le=None, lt=None, choices: Iterable | None = None, tunable: bool = False,
+          fmu: bool = True):
+    """Declare a configuration field.
+
+    Parameters
+    ----------
+    default : float, int, bool or str
+        Default value; its Python type is the parameter type.
+    quantity : str
+        Physical quantity (see :data:`sideslip.units.QUANTITIES`); gives the unit.
+    description : str
+        One-line description written into the modelDescription.
+    ge, gt, le, lt : float, optional
+        Inclusive/exclusive bounds.
+    choices : iterable, optional
+        Allowed values (strings).
+    tunable : bool
+        Whether the parameter may change during simulation (FMI variability).
+    fmu : bool
+        Whether the FMU toolkit exposes the field as an FMU parameter.
+    """
+    if quantity not in QUANTITIES:
+        raise KeyError(f"unknown quantity {quantity!r}")
+    info = ParamInfo(quantity, description, ge, gt, le, lt,
+                     tuple(choices) if choices is not None else None, tunable, fmu)
+    return dataclasses.field(default=default, metadata={"param": info})
+
+
+def declared_fields(cls_or_obj) -> list[tuple[dataclasses.Field, ParamInfo]]:
+    """The ``(field, ParamInfo)`` pairs of a config class or instance, in declaration order."""
+    return [(f, f.metadata["param"]) for f in dataclasses.fields(cls_or_obj) if "param" in f.metadata]
+
+
+def describe_range(info: ParamInfo) -> str:
+    """Allowed range of a declaration as text, e.g. ``"> 0 kg"`` or ``"[0, 1]"``."""
+    unit = "" if info.unit == "1" else f" {info.unit}"
+    if info.choices is not None:
+        return "one of " + ", ".join(repr(c) for c in info.choices)
+    lo_txt = None if info.ge is None and info.gt is None else (
+        f"[{info.ge:g}" if info.ge is not None else f"({info.gt:g}")
+    hi_txt = None if info.le is None and info.lt is None else (
+        f"{info.le:g}]" if info.le is not None else f"{info.lt:g})")
+    if lo_txt and hi_txt:
+        return f"{lo_txt}, {hi_txt}{unit}"
+    if lo_txt:
+        return (">= " if info.ge is not None else "> ") + f"{(info.ge if info.ge is not None else info.gt):g}{unit}"
+    if hi_txt:
+        return ("<= " if info.le is not None else "< ") + f"{(info.le if info.le is not None else info.lt):g}{unit}"
+    return f"any finite value{unit}"
+
+
+def _check_value(name: str, value: Any, info: ParamInfo, typ: type) -> None:
+    if typ is str:
+        if not isinstance(value, str):
+            raise ParameterError(name, value, "a string")
+        if info.choices is not None and value not in info.choices:
+            raise ParameterError(name, value, describe_range(info))
+        return
+    if typ is bool:
+        if not isinstance(value, (bool, int)):
+            raise ParameterError(name, value, "true or false")
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterError(name, value, f"a number, {describe_range(info)}")
+    if info.choices is not None:
+        if value not in info.choices:
+            raise ParameterError(name, value, describe_range(info))
+        return
+    if not math.isfinite(value) and not (math.isinf(value) and
+                                         ((value > 0 and info.le is None and info.lt is None) or
+                                          (value < 0 and info.ge is None and info.gt is None))):
+        raise ParameterError(name, value, describe_range(info))
+    if ((info.ge is not None and not value >= info.ge) or (info.gt is not None and not value > info.gt)
+            or (info.le is not None and not value <= info.le)
+            or (info.lt is not None and not value < info.lt)):
+        raise ParameterError(name, value, describe_range(info))
+    if math.isnan(value):
+        raise ParameterError(name, value, describe_range(info))
+
+
+def check(obj, prefix: str = "") -> None:
+    """Validate every declared field of a config instance.
+
+    Raises
+    ------
+    ParameterError
+        For the first field outside its declared range (name prefixed with ``prefix``).
+    """
+    for f, info in declared_fields(obj):
+        _check_value(prefix + f.name, getattr(obj, f.name), info, type(f.default))
+
+
+def _coerce(name: str, raw: Any, typ: type, info: ParamInfo):
+    if typ is str:
+        return str(raw)
+    if typ is bool:
+        if isinstance(raw, str):
+            low = raw.strip().lower()
+            if low in ("1", "true", "yes", "on"):
+                return True
+            if low in ("0", "false", "no", "off"):
+                return False
+            raise ParameterError(name, raw, "true or false")
+        return bool(raw)
+    try:
+        val = float(raw)
+    except (TypeError, ValueError):
+        raise ParameterError(name, raw, f"a number, {describe_range(info)}") from None
+    if typ is int:
+        if not val.is_integer():
+            raise ParameterError(name, raw, f"an integer, {describe_range(info)}")
+        return int(val)
+    return val
+
+
+def build(cls, values: Mapping[str, Any] | None = None, prefix: str = "", **kwargs):
+    """Construct config ``cls`` from a mapping, converting types and validating.
+
+    Unknown keys raise :class:`ParameterError` listing the accepted names, so a typo in a
+    scenario, CLI ``--set`` or FMU string parameter is reported, not ignored.
+    """
+    merged = dict(values or {})
+    merged.update(kwargs)
+    fields = {f.name: (f, info) for f, info in declared_fields(cls)}
+    other = {f.name for f in dataclasses.fields(cls)} - set(fields)
+    converted = {}
+    for key, raw in merged.items():
+        if key in fields:
+            f, info = fields[key]
+            converted[key] = _coerce(prefix + key, raw, type(f.default), info)
+        elif key in other:
+            converted[key] = raw
+        else:
+            raise ParameterError(prefix + key, raw, "a known name: " + ", ".join(sorted(fields)))
+    return cls(**converted)
+
+
+def parse_assignments(text: str, name: str = "overrides") -> dict[str, str]:
+    """Parse ``"a=1, b=2.5; c=x"`` into ``{"a": "1", "b": "2.5", "c": "x"}``.
+
+    Raises
+    ------
+    ParameterError
+        When an item is not of the form ``key=value``.
+    """
+    out: dict[str, str] = {}
+    for item in text.replace(";", ",").split(","):
+        item = item.strip()
+        if not item:
+            continue
+        if "=" not in item:
+            raise ParameterError(name, item, "comma-separated key=value items")
+        key, val = item.split("=", 1)
+        out[key.strip()] = val.strip()
+    return out

@@ -1,0 +1,210 @@
+"""The maneuver driver: speed controller, path follower, open-loop steering, road and wind.
+
+Steering: a pure-pursuit path follower (look-ahead ``max(preview_min, preview_time vx)``
+on the rear axle geometry, ``delta = atan(2 l sin(a) / L_d)``) tracks the plan's path;
+for open-loop maneuvers the handwheel profile takes over at ``t_open`` on top of the
+correction held at that instant.  The handwheel rate is limited to ``steer_rate_max``.
+
+Speed: ``a_cmd = dv_ref/dt + kp e + ki int(e)`` with feed-forward of rolling resistance
+and drag, ``T = (m a_cmd + F_res) R`` split into drive (``T > 0``) and brake torque,
+saturated, integrator frozen while saturated; on paths the target is capped by a curve
+speed profile ``sqrt(a_lat_max / |kappa|)`` propagated backwards with the braking limit.
+At standstill with zero target the brake holds the car.
+
+The driver also emits the scenario environment: friction ``mu``, bank angle and wind
+force/moment as time tables (the plant takes them as inputs).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..params import ParameterError, check, param
+from ..signals import DRIVER_OUTPUTS
+from ..vehicles import GRAVITY, VehicleParams, load_vehicle
+from .maneuvers import TimeTable, parse_maneuver
+
+__all__ = ["DriverConfig", "Driver", "DRIVER_INPUTS"]
+
+DRIVER_INPUTS = ("vx", "X", "Y", "yaw")
+
+
+@dataclass(frozen=True)
+class DriverConfig:
+    """Parameters of the driver FMU / :class:`Driver`."""
+
+    vehicle: str = param("pi2011_suv", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
+    vehicle_overrides: str = param("", "Dimensionless", "Vehicle parameter overrides, e.g. 'm=2000'")
+    maneuver: str = param("straight:v0=20,v=20", "Dimensionless",
+                          "Maneuver spec 'name:key=value,...' (see README, maneuvers)")
+    road_mu: str = param("1.0", "Dimensionless", "Friction: a number or a time table 't0:v0, t1:v1, ...'")
+    road_bank: str = param("0", "Dimensionless", "Bank angle [rad]: a number or a time table")
+    wind_force: str = param("0", "Dimensionless", "Lateral wind force [N]: a number or a time table")
+    wind_moment: str = param("0", "Dimensionless", "Wind yaw moment [N.m]: a number or a time table")
+    speed_kp: float = param(1.5, "Frequency", "Speed controller: acceleration per speed error", ge=0, le=50)
+    speed_ki: float = param(0.3, "IntegralGain", "Speed controller: integral gain", ge=0, le=50)
+    accel_max: float = param(4.0, "Acceleration", "Largest drive acceleration the driver asks for", gt=0, le=20)
+    decel_max: float = param(9.0, "Acceleration", "Largest braking deceleration the driver asks for", gt=0, le=20)
+    preview_time: float = param(0.6, "Time", "Look-ahead time of the path follower", gt=0.05, le=5)
+    preview_min: float = param(6.0, "Length", "Minimum look-ahead distance", gt=0.5, le=100)
+    steer_rate_max: float = param(math.radians(1000.0), "AngularVelocity", "Largest handwheel rate",
+                                  gt=0, le=100)
+
+    def __post_init__(self):
+        check(self)
+        parse_maneuver(self.maneuver)
+        for name in ("road_mu", "road_bank", "wind_force", "wind_moment"):
+            TimeTable(getattr(self, name), name)
+        if any(not 0.05 <= v <= 1.5 for v in TimeTable(self.road_mu).values()):
+            raise ParameterError("road_mu", self.road_mu, "friction values in [0.05, 1.5]")
+        if any(abs(v) > 0.5 for v in TimeTable(self.road_bank).values()):
+            raise ParameterError("road_bank", self.road_bank, "bank angles in [-0.5, 0.5] rad")
+
+
+class Driver:
+    """Closed-loop driver executing one maneuver.
+
+    Parameters
+    ----------
+    config : DriverConfig, optional
+        Driver parameters.
+    vehicle : VehicleParams, optional
+        Vehicle (loaded from the config if omitted).
+    """
+
+    input_names = DRIVER_INPUTS
+    output_names = DRIVER_OUTPUTS
+
+    def __init__(self, config: DriverConfig | None = None, vehicle: VehicleParams | None = None):
+        self.config = cfg = config or DriverConfig()
+        self.vehicle = vehicle or load_vehicle(cfg.vehicle, cfg.vehicle_overrides)
+        self.maneuver = parse_maneuver(cfg.maneuver)
+        self.plan = self.maneuver.plan(self.vehicle)
+        self._mu = TimeTable(cfg.road_mu, "road_mu")
+        self._bank = TimeTable(cfg.road_bank, "road_bank")
+        self._fw = TimeTable(cfg.wind_force, "wind_force")
+        self._mw = TimeTable(cfg.wind_moment, "wind_moment")
+        self._vlim = self._curve_speed_profile()
+        self.reset()
+
+    def _curve_speed_profile(self) -> list | None:
+        """Speed limit per path sample from curvature, propagated backwards with decel_max."""
+        plan = self.plan
+        if not math.isfinite(plan.a_lat_max):
+            return None
+        kappa = np.abs(plan.path.kappa)
+        vlim = np.sqrt(plan.a_lat_max / np.maximum(kappa, 1e-9))
+        s = plan.path.s
+        a = 0.5 * self.config.decel_max      # plan to brake comfortably, at half the maximum
+        n = len(vlim)
+        passes = 2 if plan.path.closed else 1
+        for _ in range(passes):
+            for i in range(n - 2, -1, -1):
+                vlim[i] = min(vlim[i], math.sqrt(vlim[i + 1] ** 2 + 2 * a * (s[i + 1] - s[i])))
+            if plan.path.closed:
+                vlim[-1] = min(vlim[-1], math.sqrt(vlim[0] ** 2 + 2 * a * (plan.path.length - s[-1])))
+        return vlim.tolist()
+
+    def __getstate__(self):
+        # the plan holds closures and large path arrays: rebuild it from the config instead
+        state = self.__dict__.copy()
+        for key in ("maneuver", "plan", "_vlim"):
+            state.pop(key, None)
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self.maneuver = parse_maneuver(self.config.maneuver)
+        self.plan = self.maneuver.plan(self.vehicle)
+        self._vlim = self._curve_speed_profile()
+
+    def reset(self) -> None:
+        """Initial state at t = 0 with outputs for t = 0."""
+        self.t = 0.0
+        self._idx = 0
+        self._integ = 0.0
+        self._delta_hold = None
+        self._delta = 0.0
+        self._v_prev = self.plan.v_ref(0.0)
+        v = self.vehicle
+        v0 = self.plan.v_ref(0.0)
+        t_ff = (v.m * GRAVITY * v.f_rr + 0.5 * v.rho_air * v.CdA * v0 * v0) * v.R_w if v0 > 0 else 0.0
+        steer0 = self.plan.steer_sw(0.0) / v.steering_ratio if (self.plan.steer_sw and self.plan.t_open <= 0) else 0.0
+        self._delta = steer0
+        self._out = self._pack(0.0, steer0, t_ff, 0.0 if v0 > 0 else self._hold_torque(), v0)
+
+    def _hold_torque(self) -> float:
+        v = self.vehicle
+        return 0.3 * v.m * GRAVITY * v.R_w
+
+    def _pack(self, t, delta, t_drive, t_brake, v_ref) -> tuple:
+        return (delta, t_drive, t_brake, self._mu(t), self._bank(t), self._fw(t), self._mw(t),
+                delta * self.vehicle.steering_ratio, v_ref)
+
+    def _pure_pursuit(self, vx: float, px: float, py: float, yaw: float) -> float:
+        path, cfg, v = self.plan.path, self.config, self.vehicle
+        self._idx, station = path.project(px, py, self._idx)
+        look = max(cfg.preview_min, cfg.preview_time * abs(vx))
+        tx, ty = path.point_at(station + look)
+        dx, dy = tx - px, ty - py
+        c, s = math.cos(yaw), math.sin(yaw)
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        alpha = math.atan2(ly, lx)
+        return math.atan(2.0 * v.l * math.sin(alpha) / math.hypot(lx, ly))
+
+    def step(self, h: float, vx: float, X: float, Y: float, yaw: float) -> None:
+        """Advance by ``h`` [s]; arguments are the latest plant truth (``vx``, position, yaw).
+
+        Raises
+        ------
+        ValueError
+            If ``h <= 0``.
+        """
+        if not h > 0.0:
+            raise ValueError(f"step size must be > 0, got {h}")
+        cfg, v, plan = self.config, self.vehicle, self.plan
+        self.t = t = self.t + h
+
+        # ---- steering
+        if plan.steer_sw is not None and t >= plan.t_open:
+            if self._delta_hold is None:
+                self._delta_hold = self._delta
+            target = self._delta_hold + plan.steer_sw(t) / v.steering_ratio
+        else:
+            target = self._pure_pursuit(vx, X, Y, yaw)
+        max_step = cfg.steer_rate_max / v.steering_ratio * h
+        delta = self._delta + min(max(target - self._delta, -max_step), max_step)
+        self._delta = delta = min(max(delta, -0.7), 0.7)
+
+        # ---- speed
+        v_ref = plan.v_ref(t)
+        if self._vlim is not None:
+            v_ref = min(v_ref, self._vlim[self._idx])
+        dv_ref = (v_ref - self._v_prev) / h
+        self._v_prev = v_ref
+        if v_ref <= 0.05 and abs(vx) < 0.3:
+            self._integ = 0.0
+            self._out = self._pack(t, delta, 0.0, self._hold_torque(), v_ref)
+            return
+        err = v_ref - vx
+        a_cmd = dv_ref + cfg.speed_kp * err + cfg.speed_ki * self._integ
+        f_res = v.m * GRAVITY * v.f_rr * (1.0 if vx >= 0 else -1.0) + 0.5 * v.rho_air * v.CdA * vx * abs(vx)
+        a_lo = -cfg.decel_max
+        a_hi = 0.0 if t >= plan.brake_only_from else cfg.accel_max
+        force = v.m * a_cmd + f_res
+        f_lo, f_hi = v.m * a_lo, v.m * a_hi
+        if f_lo < force < f_hi:
+            self._integ += err * h                       # no wind-up while saturated
+        force = min(max(force, f_lo), f_hi)
+        torque = force * v.R_w if t < plan.coast_from else 0.0
+        self._out = self._pack(t, delta, max(torque, 0.0), max(-torque, 0.0), v_ref)
+
+    def outputs(self) -> tuple:
+        """Outputs ordered as :data:`sideslip.signals.DRIVER_OUTPUTS`."""
+        return self._out
+
+    def output_dict(self) -> dict[str, float]:
+        """Outputs as ``{name: value}``."""
+        return dict(zip(DRIVER_OUTPUTS, self._out))

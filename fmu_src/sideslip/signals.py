@@ -1,0 +1,183 @@
+"""The signal catalogue: every signal that crosses an FMU boundary, defined once.
+
+Names are the binding I/O contract of DESIGN.md (never renamed; extras may be added).
+Frames: ISO 8855 vehicle axes (x forward, y left, z up); global ENU (X east, Y north);
+yaw counter-clockwise from east; ``beta = atan2(vy, vx)``; steering positive to the left.
+FMU wrappers declare their ports by name from here, so unit, declared type, range and
+description are written identically into every modelDescription.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .units import QUANTITIES
+
+__all__ = ["Signal", "SIGNALS", "signal", "PLANT_INPUTS", "PLANT_OUTPUTS", "SENSOR_OUTPUTS",
+           "DRIVER_OUTPUTS", "ESTIMATOR_COMMON_OUTPUTS", "CONTROLLER_INPUTS", "CONTROLLER_OUTPUTS"]
+
+_INF = math.inf
+
+
+@dataclass(frozen=True)
+class Signal:
+    """One catalogue entry.
+
+    Parameters
+    ----------
+    name : str
+        Port name (contract name).
+    quantity : str
+        Physical quantity, used as FMI ``declaredType``; determines the unit.
+    description : str
+        One-line description with sign convention.
+    kind : {"Real", "Boolean"}
+        FMI variable type.
+    min, max : float
+        Physical range (written as ``min``/``max``; inputs outside are clamped by the toolkit).
+    start : float
+        Start value of the port.
+    """
+
+    name: str
+    quantity: str
+    description: str
+    kind: str = "Real"
+    min: float = -_INF
+    max: float = _INF
+    start: float = 0.0
+
+    @property
+    def unit(self) -> str:
+        """SI unit string of the signal."""
+        return QUANTITIES[self.quantity]
+
+
+def _real(name, quantity, description, lo=-_INF, hi=_INF, start=0.0):
+    return Signal(name, quantity, description, "Real", lo, hi, start)
+
+
+def _bool(name, description, start=False):
+    return Signal(name, "Dimensionless", description, "Boolean", start=float(start))
+
+
+_WHEELS = (("fl", "front-left"), ("fr", "front-right"), ("rl", "rear-left"), ("rr", "rear-right"))
+_PI = math.pi
+
+_ENTRIES = [
+    # --- plant inputs -----------------------------------------------------------------
+    _real("delta_f", "Angle", "Front road-wheel steering angle, positive to the left", -1.0, 1.0),
+    _real("T_drive", "Torque", "Total drive torque at the wheels (split by the vehicle's drive split)",
+          -2.0e4, 2.0e4),
+    _real("T_brake", "Torque", "Total brake torque at the wheels (>= 0, split by the brake balance)",
+          0.0, 5.0e4),
+    _real("Mz_dyc", "Torque", "Yaw-moment request realised by the in-wheel motors (positive turns left)",
+          -2.0e4, 2.0e4),
+    _real("mu", "FrictionCoefficient", "Tire-road friction coefficient", 0.05, 1.5, 1.0),
+    _real("bank_angle", "Angle", "Road bank angle about the vehicle x axis, positive = left side up",
+          -0.5, 0.5),
+    _real("F_wind_y", "Force", "External lateral force at the CG (e.g. wind gust), positive to the left",
+          -2.0e4, 2.0e4),
+    _real("M_wind_z", "Torque", "External yaw moment about the CG (e.g. wind gust), positive turns left",
+          -2.0e4, 2.0e4),
+    # --- plant truth outputs ----------------------------------------------------------
+    _real("vx", "Velocity", "Longitudinal velocity of the CG in vehicle axes (truth)", -100.0, 100.0),
+    _real("vy", "Velocity", "Lateral velocity of the CG in vehicle axes, positive left (truth)",
+          -100.0, 100.0),
+    _real("yaw_rate", "AngularVelocity", "Yaw rate, positive counter-clockwise (truth)", -10.0, 10.0),
+    _real("beta", "Angle", "Sideslip angle atan2(vy, vx) (truth)", -_PI, _PI),
+    _real("yaw", "Angle", "Yaw angle counter-clockwise from east, wrapped to (-pi, pi] (truth)", -_PI, _PI),
+    _real("roll", "Angle", "Roll angle of the body w.r.t. the horizontal (bank + suspension roll), "
+          "positive = right side down (truth)", -1.0, 1.0),
+    _real("roll_rate", "AngularVelocity", "Body roll rate (truth)", -10.0, 10.0),
+    _real("ax", "Acceleration", "Longitudinal specific force at the CG as a perfect body-fixed "
+          "accelerometer reads it (truth)", -100.0, 100.0),
+    _real("ay", "Acceleration", "Lateral specific force at the CG as a perfect body-fixed accelerometer "
+          "reads it, incl. gravity through bank and roll (truth)", -100.0, 100.0),
+    _real("X", "Position", "Global east position of the CG (truth)"),
+    _real("Y", "Position", "Global north position of the CG (truth)"),
+    *[_real(f"omega_{w}", "AngularVelocity", f"Spin rate of the {d} wheel (truth)", -500.0, 500.0)
+      for w, d in _WHEELS],
+    _real("Fy_f", "Force", "Front-axle lateral force in vehicle axes (truth)", -1.0e5, 1.0e5),
+    _real("Fy_r", "Force", "Rear-axle lateral force in vehicle axes (truth)", -1.0e5, 1.0e5),
+    *[_real(f"Fz_{w}", "Force", f"Vertical load on the {d} tire (truth)", 0.0, 1.0e5)
+      for w, d in _WHEELS],
+    _real("alpha_f", "Angle", "Front-axle slip angle (mean of the two wheels), velocity angle minus "
+          "wheel heading; lateral force is opposite in sign (truth)", -_PI, _PI),
+    _real("alpha_r", "Angle", "Rear-axle slip angle (mean of the two wheels) (truth)", -_PI, _PI),
+    _real("Mz_act", "Torque", "Yaw moment actually produced by the in-wheel motor torque difference "
+          "(truth)", -2.0e4, 2.0e4),
+    # --- sensor outputs ---------------------------------------------------------------
+    _real("ax_m", "Acceleration", "Measured longitudinal acceleration (IMU)", -100.0, 100.0),
+    _real("ay_m", "Acceleration", "Measured lateral acceleration (IMU)", -100.0, 100.0),
+    _real("yaw_rate_m", "AngularVelocity", "Measured yaw rate (gyro)", -10.0, 10.0),
+    _real("roll_rate_m", "AngularVelocity", "Measured roll rate (gyro)", -10.0, 10.0),
+    _real("delta_m", "Angle", "Measured front road-wheel angle (steering-angle sensor / steering ratio)",
+          -1.0, 1.0),
+    *[_real(f"omega_{w}_m", "AngularVelocity", f"Measured spin rate of the {d} wheel", -500.0, 500.0)
+      for w, d in _WHEELS],
+    _real("gps_ve", "Velocity", "GPS velocity east (held between fixes)", -100.0, 100.0),
+    _real("gps_vn", "Velocity", "GPS velocity north (held between fixes)", -100.0, 100.0),
+    _real("gps_speed", "Velocity", "GPS horizontal speed (held between fixes)", 0.0, 100.0),
+    _real("gps_course", "Angle", "GPS course atan2(gps_vn, gps_ve), counter-clockwise from east",
+          -_PI, _PI),
+    _bool("gps_fresh", "True in the communication step in which a new GPS fix arrives"),
+    _bool("gps_valid", "True while a GPS fix is available (false during outages)"),
+    _real("mag_x", "MagneticFluxRatio", "Magnetometer x, field normalised to the undisturbed norm, "
+          "sensor (vehicle) axes", -10.0, 10.0),
+    _real("mag_y", "MagneticFluxRatio", "Magnetometer y, normalised, sensor axes", -10.0, 10.0),
+    _real("mag_z", "MagneticFluxRatio", "Magnetometer z, normalised, sensor axes", -10.0, 10.0),
+    _bool("delta_fault_active", "True while the injected steering-sensor fault is active (truth)"),
+    _bool("mag_disturbance_active", "True while an injected magnetic disturbance is active (truth)"),
+    # --- driver / scenario outputs (plus delta_f, T_drive, T_brake, mu, bank_angle, wind) -------
+    _real("delta_sw", "Angle", "Handwheel angle commanded by the driver (delta_f times steering ratio)",
+          -20.0, 20.0),
+    _real("v_ref", "Velocity", "Target speed of the driver's speed controller", -100.0, 100.0),
+    # --- every estimator ----------------------------------------------------------------
+    _real("beta_hat", "Angle", "Estimated sideslip angle", -_PI, _PI),
+    _real("beta_hat_std", "Angle", "1-sigma of the sideslip estimate from the filter covariance",
+          0.0, 10.0),
+    _real("vx_hat", "Velocity", "Estimated longitudinal velocity", -100.0, 100.0),
+    _real("vy_hat", "Velocity", "Estimated lateral velocity", -100.0, 100.0),
+    _real("yaw_rate_hat", "AngularVelocity", "Estimated yaw rate", -10.0, 10.0),
+    _bool("valid", "True when the estimate is usable (initialised, inputs finite, vx above threshold)"),
+    # --- controller -----------------------------------------------------------------------
+    _real("Mz_cmd", "Torque", "Direct-yaw-moment command for the in-wheel motors", -2.0e4, 2.0e4),
+    _real("beta_ref", "Angle", "Reference sideslip angle of the reference model", -_PI, _PI),
+    _real("yaw_rate_ref", "AngularVelocity", "Reference yaw rate of the reference model", -10.0, 10.0),
+]
+
+SIGNALS: dict[str, Signal] = {}
+for _s in _ENTRIES:
+    if _s.name in SIGNALS:  # pragma: no cover - guards the table itself
+        raise RuntimeError(f"duplicate signal {_s.name}")
+    SIGNALS[_s.name] = _s
+
+
+def signal(name: str) -> Signal:
+    """Catalogue entry of ``name``.
+
+    Raises
+    ------
+    KeyError
+        With the list of known names when ``name`` is not in the catalogue.
+    """
+    try:
+        return SIGNALS[name]
+    except KeyError:
+        raise KeyError(f"'{name}' is not in the signal catalogue") from None
+
+
+_W = [w for w, _ in _WHEELS]
+PLANT_INPUTS = ("delta_f", "T_drive", "T_brake", "Mz_dyc", "mu", "bank_angle", "F_wind_y", "M_wind_z")
+PLANT_OUTPUTS = ("vx", "vy", "yaw_rate", "beta", "yaw", "roll", "roll_rate", "ax", "ay", "X", "Y",
+                 *[f"omega_{w}" for w in _W], "Fy_f", "Fy_r", *[f"Fz_{w}" for w in _W],
+                 "alpha_f", "alpha_r", "Mz_act")
+SENSOR_OUTPUTS = ("ax_m", "ay_m", "yaw_rate_m", "roll_rate_m", "delta_m", *[f"omega_{w}_m" for w in _W],
+                  "gps_ve", "gps_vn", "gps_speed", "gps_course", "gps_fresh", "gps_valid",
+                  "mag_x", "mag_y", "mag_z", "delta_fault_active", "mag_disturbance_active")
+DRIVER_OUTPUTS = ("delta_f", "T_drive", "T_brake", "mu", "bank_angle", "F_wind_y", "M_wind_z",
+                  "delta_sw", "v_ref")
+ESTIMATOR_COMMON_OUTPUTS = ("beta_hat", "beta_hat_std", "vx_hat", "vy_hat", "yaw_rate_hat", "valid")
+CONTROLLER_INPUTS = ("delta_m", "vx_hat", "beta_hat", "yaw_rate_m")
+CONTROLLER_OUTPUTS = ("Mz_cmd", "beta_ref", "yaw_rate_ref")

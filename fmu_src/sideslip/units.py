@@ -1,0 +1,93 @@
+"""SI units and quantities used on FMU ports and parameters.
+
+One table, used by the signal catalogue, the parameter declarations and the FMU toolkit
+(which writes it as ``UnitDefinitions``/``TypeDefinitions`` into every modelDescription).
+Angles are always radians on a port; degrees exist only as a *display* unit.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+__all__ = ["Unit", "UNITS", "QUANTITIES", "unit_of_quantity"]
+
+
+@dataclass(frozen=True)
+class Unit:
+    """An SI unit as FMI 2.0 describes it.
+
+    Parameters
+    ----------
+    name : str
+        Unit string as written on variables (``"m/s2"``, ``"N.m"``, ``"1"``).
+    base : dict
+        Exponents of the FMI base units (``kg, m, s, A, K, mol, cd, rad``).
+    display : tuple of (str, float)
+        Display units as ``(name, factor)`` with ``display = factor * value``.
+    """
+
+    name: str
+    base: dict = field(default_factory=dict)
+    display: tuple = ()
+
+
+_DEG = 180.0 / math.pi
+
+UNITS: dict[str, Unit] = {u.name: u for u in (
+    Unit("1"),
+    Unit("s", {"s": 1}),
+    Unit("Hz", {"s": -1}),
+    Unit("m", {"m": 1}),
+    Unit("m/s", {"m": 1, "s": -1}, (("km/h", 3.6),)),
+    Unit("m/s2", {"m": 1, "s": -2}, (("g", 1.0 / 9.80665),)),
+    Unit("rad", {"rad": 1}, (("deg", _DEG),)),
+    Unit("rad/s", {"rad": 1, "s": -1}, (("deg/s", _DEG),)),
+    Unit("rad/s2", {"rad": 1, "s": -2}, (("deg/s2", _DEG),)),
+    Unit("kg", {"kg": 1}),
+    Unit("kg.m2", {"kg": 1, "m": 2}),
+    Unit("N", {"kg": 1, "m": 1, "s": -2}),
+    Unit("N.m", {"kg": 1, "m": 2, "s": -2}),
+    Unit("N.s/m", {"kg": 1, "s": -1}),
+    Unit("N/rad", {"kg": 1, "m": 1, "s": -2, "rad": -1}),
+    Unit("N.m/rad", {"kg": 1, "m": 2, "s": -2, "rad": -1}),
+    Unit("N.m.s/rad", {"kg": 1, "m": 2, "s": -1, "rad": -1}),
+    Unit("1/rad", {"rad": -1}),
+    Unit("m2", {"m": 2}),
+    Unit("kg/m3", {"kg": 1, "m": -3}),
+    Unit("s/m", {"m": -1, "s": 1}),
+    Unit("1/s2", {"s": -2}),
+)}
+
+# quantity (FMI declaredType name) -> unit
+QUANTITIES: dict[str, str] = {
+    "Time": "s",
+    "Frequency": "Hz",
+    "Length": "m",
+    "Position": "m",
+    "Velocity": "m/s",
+    "Acceleration": "m/s2",
+    "Angle": "rad",
+    "AngularVelocity": "rad/s",
+    "AngularAcceleration": "rad/s2",
+    "Mass": "kg",
+    "MomentOfInertia": "kg.m2",
+    "Force": "N",
+    "Torque": "N.m",
+    "DampingCoefficient": "N.s/m",
+    "CorneringStiffness": "N/rad",
+    "RollStiffness": "N.m/rad",
+    "RollDamping": "N.m.s/rad",
+    "NormalisedStiffness": "1/rad",
+    "Area": "m2",
+    "Density": "kg/m3",
+    "Slowness": "s/m",
+    "IntegralGain": "1/s2",
+    "FrictionCoefficient": "1",
+    "MagneticFluxRatio": "1",
+    "Dimensionless": "1",
+}
+
+
+def unit_of_quantity(quantity: str) -> str:
+    """Unit string of a quantity (raises ``KeyError`` for an unknown quantity)."""
+    return QUANTITIES[quantity]

@@ -1,0 +1,217 @@
+"""Vehicle parameter sets: a validated, frozen dataclass in SI units and one TOML per vehicle.
+
+Each TOML file holds ``[params]`` (the :class:`VehicleParams` fields) and ``[source]``
+(the paper and table, plus an ``assumed`` table giving the reason for every value that
+the paper does not provide).  Load with :func:`load_vehicle` by name or path; override
+single values with ``"m=2000, I_zz=3800"``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from ..params import ParameterError, build, check, param, parse_assignments
+
+__all__ = ["VehicleParams", "load_vehicle", "vehicle_names", "vehicle_source", "GRAVITY"]
+
+GRAVITY = 9.81
+"""Gravitational acceleration [m/s2] used throughout (as in the papers' tables)."""
+
+_DIR = Path(__file__).parent
+
+
+@dataclass(frozen=True)
+class VehicleParams:
+    """Physical parameters of one vehicle (SI units, per-tire unless stated per axle).
+
+    The plant uses the physical values; estimators use the ``*_nominal`` axle cornering
+    stiffnesses (what a paper's filter assumes), which may differ from the plant's tires
+    on purpose (e.g. Nguyen 2012: true 10000, nominal 7000 N/rad per tire).
+    """
+
+    name: str = param("custom", "Dimensionless", "Vehicle name", fmu=False)
+    # masses and inertias
+    m: float = param(1500.0, "Mass", "Total vehicle mass", gt=0)
+    m_s: float = param(1350.0, "Mass", "Sprung mass", gt=0)
+    m_uf: float = param(75.0, "Mass", "Front unsprung mass (axle)", ge=0)
+    m_ur: float = param(75.0, "Mass", "Rear unsprung mass (axle)", ge=0)
+    I_zz: float = param(2500.0, "MomentOfInertia", "Yaw moment of inertia", gt=0)
+    I_xx: float = param(500.0, "MomentOfInertia", "Roll moment of inertia of the sprung mass about its CG",
+                         gt=0)
+    I_xz: float = param(0.0, "MomentOfInertia", "Yaw/roll product of inertia of the sprung mass")
+    # geometry
+    l_f: float = param(1.2, "Length", "CG to front axle", gt=0)
+    l_r: float = param(1.5, "Length", "CG to rear axle", gt=0)
+    l_fs: float = param(1.2, "Length", "Sprung-mass CG to front axle", gt=0)
+    l_rs: float = param(1.5, "Length", "Sprung-mass CG to rear axle", gt=0)
+    t_f: float = param(1.55, "Length", "Front track width", gt=0)
+    t_r: float = param(1.55, "Length", "Rear track width", gt=0)
+    h_cg: float = param(0.55, "Length", "Height of the vehicle CG", gt=0)
+    h_s: float = param(0.45, "Length", "Sprung-mass CG above the roll axis", ge=0)
+    h_uf: float = param(0.3, "Length", "Height of the front unsprung-mass CG", ge=0)
+    h_ur: float = param(0.3, "Length", "Height of the rear unsprung-mass CG", ge=0)
+    # suspension
+    K_phi_f: float = param(60000.0, "RollStiffness", "Front roll stiffness", gt=0)
+    K_phi_r: float = param(45000.0, "RollStiffness", "Rear roll stiffness", gt=0)
+    C_phi_f: float = param(4000.0, "RollDamping", "Front roll damping", ge=0)
+    C_phi_r: float = param(3000.0, "RollDamping", "Rear roll damping", ge=0)
+    # wheels and tires
+    R_w: float = param(0.31, "Length", "Effective rolling radius", gt=0)
+    I_w: float = param(1.2, "MomentOfInertia", "Spin inertia of one wheel (incl. driveline share)", gt=0)
+    C_sigma: float = param(90000.0, "Force", "Tire longitudinal slip stiffness (per tire, N per unit slip)",
+                           gt=0)
+    C_alpha_f: float = param(60000.0, "CorneringStiffness", "Front tire cornering stiffness at mu >= 1",
+                             gt=0)
+    C_alpha_r: float = param(60000.0, "CorneringStiffness", "Rear tire cornering stiffness at mu >= 1",
+                             gt=0)
+    mu_lo: float = param(0.3, "FrictionCoefficient", "Friction at which the *_lo cornering stiffnesses hold",
+                         gt=0, lt=1)
+    C_alpha_f_lo: float = param(60000.0, "CorneringStiffness",
+                                "Front tire cornering stiffness at mu = mu_lo (linear in mu between)", gt=0)
+    C_alpha_r_lo: float = param(60000.0, "CorneringStiffness",
+                                "Rear tire cornering stiffness at mu = mu_lo (linear in mu between)", gt=0)
+    eps_v: float = param(0.0, "Slowness", "Dugoff velocity effect factor (friction drop per sliding speed)",
+                         ge=0, le=0.2)
+    # estimator-side nominal values (axle)
+    C_f_nominal: float = param(120000.0, "CorneringStiffness", "Nominal front-axle cornering stiffness at mu ~ 1 "
+                               "(what the papers' filters assume)", gt=0)
+    C_r_nominal: float = param(120000.0, "CorneringStiffness", "Nominal rear-axle cornering stiffness at mu ~ 1",
+                               gt=0)
+    C_f_nominal_lo: float = param(120000.0, "CorneringStiffness", "Nominal front-axle cornering stiffness at "
+                                  "mu = mu_lo", gt=0)
+    C_r_nominal_lo: float = param(120000.0, "CorneringStiffness", "Nominal rear-axle cornering stiffness at "
+                                  "mu = mu_lo", gt=0)
+    # drivetrain, brakes, in-wheel motors
+    steering_ratio: float = param(15.0, "Dimensionless", "Handwheel angle / road-wheel angle", gt=1, le=40)
+    drive_split_front: float = param(1.0, "Dimensionless", "Share of drive torque on the front axle", ge=0, le=1)
+    brake_split_front: float = param(0.65, "Dimensionless", "Share of brake torque on the front axle",
+                                     ge=0, le=1)
+    motor_axle: str = param("rear", "Dimensionless", "Axle carrying the in-wheel motors that realise Mz_dyc",
+                            choices=("front", "rear"))
+    motor_T_max: float = param(800.0, "Torque", "Torque limit of one in-wheel motor", ge=0)
+    motor_tau: float = param(0.01, "Time", "Time constant of the in-wheel motor torque response", ge=0, le=1)
+    # resistances
+    f_rr: float = param(0.012, "Dimensionless", "Rolling-resistance coefficient", ge=0, le=0.1)
+    CdA: float = param(0.7, "Area", "Aerodynamic drag area", ge=0)
+    rho_air: float = param(1.2, "Density", "Air density", gt=0)
+
+    def __post_init__(self):
+        check(self, prefix="vehicle.")
+        if abs(self.m_s + self.m_uf + self.m_ur - self.m) > 0.02 * self.m:
+            raise ParameterError("vehicle.m_s", self.m_s,
+                                 f"m_s + m_uf + m_ur within 2 % of m = {self.m:g} kg")
+        if self.h_scg < self.h_s:
+            raise ParameterError("vehicle.h_s", self.h_s,
+                                 f"<= sprung CG height {self.h_scg:.3f} m (roll axis above ground)")
+        if self.K_phi_f + self.K_phi_r <= self.m_s * GRAVITY * self.h_s:
+            raise ParameterError("vehicle.K_phi_f", self.K_phi_f,
+                                 f"K_phi_f + K_phi_r > m_s g h_s = {self.m_s * GRAVITY * self.h_s:.0f} N.m/rad "
+                                 "(statically stable roll)")
+        if self.I_xz ** 2 >= self.I_zz * self.I_roll:
+            raise ParameterError("vehicle.I_xz", self.I_xz, "I_xz^2 < I_zz (I_xx + m_s h_s^2)")
+
+    # ---- derived quantities ------------------------------------------------------------
+    @property
+    def l(self) -> float:
+        """Wheelbase l_f + l_r [m]."""
+        return self.l_f + self.l_r
+
+    @property
+    def h_scg(self) -> float:
+        """Height of the sprung-mass CG [m]."""
+        return (self.m * self.h_cg - self.m_uf * self.h_uf - self.m_ur * self.h_ur) / self.m_s
+
+    @property
+    def h_roll_axis(self) -> float:
+        """Height of the (horizontal) roll axis [m]."""
+        return self.h_scg - self.h_s
+
+    @property
+    def I_roll(self) -> float:
+        """Sprung-mass roll inertia about the roll axis, I_xx + m_s h_s^2 [kg m2]."""
+        return self.I_xx + self.m_s * self.h_s ** 2
+
+    @property
+    def C_f(self) -> float:
+        """True front-axle cornering stiffness at mu >= 1 [N/rad]."""
+        return 2.0 * self.C_alpha_f
+
+    @property
+    def C_r(self) -> float:
+        """True rear-axle cornering stiffness at mu >= 1 [N/rad]."""
+        return 2.0 * self.C_alpha_r
+
+    def cornering_stiffness(self, mu: float) -> tuple[float, float]:
+        """Per-tire cornering stiffness (front, rear) [N/rad] on friction ``mu``.
+
+        Linear in ``mu`` between ``mu_lo`` and 1, held outside: tires on snow are softer in
+        their linear range, not only lower in their limit (Park 2018, Table 1).
+        """
+        w = min(max((mu - self.mu_lo) / (1.0 - self.mu_lo), 0.0), 1.0)
+        return (self.C_alpha_f_lo + w * (self.C_alpha_f - self.C_alpha_f_lo),
+                self.C_alpha_r_lo + w * (self.C_alpha_r - self.C_alpha_r_lo))
+
+    def nominal_cornering_stiffness(self, mu: float = 1.0) -> tuple[float, float]:
+        """Estimator-side axle cornering stiffness (front, rear) [N/rad] for friction ``mu``.
+
+        Interpolated like :meth:`cornering_stiffness` (Park 2018 keeps C_f0n/C_r0n per mu).
+        """
+        w = min(max((mu - self.mu_lo) / (1.0 - self.mu_lo), 0.0), 1.0)
+        return (self.C_f_nominal_lo + w * (self.C_f_nominal - self.C_f_nominal_lo),
+                self.C_r_nominal_lo + w * (self.C_r_nominal - self.C_r_nominal_lo))
+
+    def with_overrides(self, overrides: str | dict) -> "VehicleParams":
+        """A copy with some fields replaced (``"m=2000, I_zz=3800"`` or a mapping), validated."""
+        items = parse_assignments(overrides, "vehicle_overrides") if isinstance(overrides, str) else dict(overrides)
+        if not items:
+            return self
+        base = dataclasses.asdict(self)
+        base.update(items)
+        return build(VehicleParams, base, prefix="vehicle.")
+
+
+def vehicle_names() -> list[str]:
+    """Names of the bundled vehicle parameter sets."""
+    return sorted(p.stem for p in _DIR.glob("*.toml"))
+
+
+def _resolve(name_or_path: str) -> Path:
+    path = Path(name_or_path)
+    if path.suffix == ".toml" and path.is_file():
+        return path
+    candidate = _DIR / f"{name_or_path}.toml"
+    if candidate.is_file():
+        return candidate
+    raise ParameterError("vehicle", name_or_path,
+                         "one of " + ", ".join(vehicle_names()) + " or the path of a vehicle TOML file")
+
+
+@lru_cache(maxsize=32)
+def _load_file(path: str) -> tuple[dict, dict]:
+    with open(path, "rb") as fh:
+        data = tomllib.load(fh)
+    if "params" not in data:
+        raise ParameterError("vehicle", path, "a TOML file with a [params] table")
+    return data["params"], data.get("source", {})
+
+
+def load_vehicle(name_or_path: str, overrides: str | dict = "") -> VehicleParams:
+    """Load a vehicle by bundled name or TOML path and apply overrides.
+
+    Raises
+    ------
+    ParameterError
+        Unknown vehicle, unknown field, or a value outside its allowed range.
+    """
+    path = _resolve(name_or_path)
+    params, _ = _load_file(str(path))
+    vehicle = build(VehicleParams, {"name": path.stem, **params}, prefix="vehicle.")
+    return vehicle.with_overrides(overrides)
+
+
+def vehicle_source(name_or_path: str) -> dict:
+    """The ``[source]`` table of a vehicle file (paper, table, assumed values with reasons)."""
+    return dict(_load_file(str(_resolve(name_or_path)))[1])
