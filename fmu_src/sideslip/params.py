@@ -203,7 +203,12 @@ def build(cls, values: Mapping[str, Any] | None = None, prefix: str = "", **kwar
             converted[key] = raw
         else:
             raise ParameterError(prefix + key, raw, "a known name: " + ", ".join(sorted(fields)))
-    return cls(**converted)
+    try:
+        return cls(**converted)
+    except ParameterError as exc:      # name the context (e.g. "maneuver sine_steer: frequency")
+        if prefix and not exc.name.startswith(prefix):
+            raise ParameterError(prefix + exc.name, exc.value, exc.allowed) from None
+        raise
 
 
 def parse_assignments(text: str, name: str = "overrides") -> dict[str, str]:

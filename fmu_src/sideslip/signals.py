@@ -94,8 +94,8 @@ _ENTRIES = [
           "accelerometer reads it (truth)", -100.0, 100.0),
     _real("ay", "Acceleration", "Lateral specific force at the CG as a perfect body-fixed accelerometer "
           "reads it, incl. gravity through bank and roll (truth)", -100.0, 100.0),
-    _real("X", "Position", "Global east position of the CG (truth)"),
-    _real("Y", "Position", "Global north position of the CG (truth)"),
+    _real("X", "Position", "Global east position of the CG (truth)", -1.0e7, 1.0e7),
+    _real("Y", "Position", "Global north position of the CG (truth)", -1.0e7, 1.0e7),
     *[_real(f"omega_{w}", "AngularVelocity", f"Spin rate of the {d} wheel (truth)", -500.0, 500.0)
       for w, d in _WHEELS],
     _real("Fy_f", "Force", "Front-axle lateral force in vehicle axes (truth)", -1.0e5, 1.0e5),

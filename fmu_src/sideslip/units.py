@@ -55,6 +55,7 @@ UNITS: dict[str, Unit] = {u.name: u for u in (
     Unit("m2", {"m": 2}),
     Unit("kg/m3", {"kg": 1, "m": -3}),
     Unit("s/m", {"m": -1, "s": 1}),
+    Unit("1/s", {"s": -1}),
     Unit("1/s2", {"s": -2}),
 )}
 
@@ -81,6 +82,7 @@ QUANTITIES: dict[str, str] = {
     "Area": "m2",
     "Density": "kg/m3",
     "Slowness": "s/m",
+    "InverseTime": "1/s",
     "IntegralGain": "1/s2",
     "FrictionCoefficient": "1",
     "MagneticFluxRatio": "1",

@@ -1,4 +1,4 @@
-"""Command line: ``python -m sideslip {list,run,bench,demo,build}``.
+"""Command line: ``python -m sideslip {list,run,demo,bench,build,fmu-tables}``.
 
 ``run`` writes ``DIR/results.csv``, ``DIR/metrics.json`` and ``DIR/sideslip.png`` and prints
 a metrics table; ``demo`` is ``run`` on a default scenario with every registered estimator;
@@ -101,6 +101,13 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+def _cmd_fmu_tables(args) -> int:
+    from ..fmi.docs import fmu_tables_markdown
+
+    print(fmu_tables_markdown(), end="")
+    return 0
+
+
 def _cmd_build(args) -> int:
     from ..fmi.build import build_fmus
 
@@ -137,13 +144,14 @@ def main(argv=None) -> int:
     bench = sub.add_parser("bench", help="microseconds per step per FMU and closed-loop real-time factor")
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--duration", type=float, default=5.0, help="simulated seconds per measurement")
+    sub.add_parser("fmu-tables", help="markdown I/O tables of the FMUs (as in the README)")
     build = sub.add_parser("build", help="build the FMUs")
     build.add_argument("names", nargs="*")
     build.add_argument("--force", action="store_true")
     args = p.parse_args(argv)
     try:
         return {"list": _cmd_list, "run": _cmd_run, "demo": _cmd_demo, "bench": _cmd_bench,
-                "build": _cmd_build}[args.cmd](args)
+                "build": _cmd_build, "fmu-tables": _cmd_fmu_tables}[args.cmd](args)
     except (KeyError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

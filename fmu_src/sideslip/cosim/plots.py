@@ -1,4 +1,8 @@
-"""Figures like the papers': true vs estimated sideslip and the estimation error (matplotlib, Agg)."""
+"""Figures like the papers': true vs estimated sideslip and the estimation error.
+
+Drawn with matplotlib's object API onto an Agg canvas, so no pyplot state or global
+backend is touched (a user's interactive session keeps its own backend).
+"""
 from __future__ import annotations
 
 import math
@@ -20,16 +24,16 @@ def plot_sideslip(results, estimators, path: str | Path, title: str = "", plant:
     Samples below ``min_speed`` are blanked (sideslip is undefined at standstill).
     Without estimators the lower panel shows the lateral acceleration and yaw rate.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     t = results["time"]
     speed = np.hypot(results[f"{plant}.vx"], results[f"{plant}.vy"])
     blank = speed <= min_speed
     truth = np.where(blank, np.nan, results[f"{plant}.beta"] * _DEG)
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
+    fig = Figure(figsize=(10, 6.5))
+    FigureCanvasAgg(fig)
+    ax1, ax2 = fig.subplots(2, 1, sharex=True)
     ax1.plot(t, truth, "k", lw=2.0, label="true")
     for name in estimators:
         est = np.where(blank, np.nan, results[f"{name}.beta_hat"] * _DEG)
@@ -54,5 +58,4 @@ def plot_sideslip(results, estimators, path: str | Path, title: str = "", plant:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path

@@ -41,9 +41,10 @@ def _fmpy_headers() -> Path:
 
 def compile_shim(work: Path) -> tuple[Path | None, str]:
     """Compile the status shim; returns ``(path or None, message)``."""
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    cc = next((shutil.which(c) for c in (os.environ.get("CC"), "cc", "gcc") if c and shutil.which(c)), None)
     if not cc:
-        return None, "no C compiler found (set CC): keeping pythonfmu's plain linux64 binary"
+        return None, ("no C compiler found (set CC or install gcc): keeping pythonfmu's plain linux64 binary; "
+                      "bad parameters are then reported by a logged error and a refused doStep, not fmi2Error")
     out = work / "fmi2_status_shim.so"
     cmd = [cc, "-shared", "-fPIC", "-O2", "-fvisibility=hidden", f"-I{_fmpy_headers()}", str(SHIM_SOURCE),
            "-o", str(out), "-ldl"]
@@ -78,7 +79,10 @@ def _install_shim(fmu: Path, model_id: str, shim: Path) -> None:
         for item in src.infolist():
             data = src.read(item.filename)
             if item.filename == target:
-                dst.writestr(f"binaries/linux64/{INNER_NAME}", data)
+                inner = zipfile.ZipInfo(f"binaries/linux64/{INNER_NAME}", item.date_time)
+                inner.external_attr = 0o755 << 16
+                inner.compress_type = zipfile.ZIP_DEFLATED
+                dst.writestr(inner, data)
                 dst.write(shim, target)
             else:
                 dst.writestr(item, data)

@@ -36,6 +36,7 @@ import ctypes
 import math
 import pickle
 import traceback
+from operator import le
 from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
@@ -299,10 +300,9 @@ class SideslipSlave(Fmi2Slave):
             return False
         try:
             u = self._ports[:self._n_in]
-            for x, lo, hi in zip(u, self._in_lo, self._in_hi):
-                if not lo <= x <= hi:                # rare: NaN, inf or out of range
-                    u = self._sanitize(u)
-                    break
+            # in range and finite (NaN compares false); the rare failure goes to _sanitize
+            if not (all(map(le, self._in_lo, u)) and all(map(le, u, self._in_hi))):
+                u = self._sanitize(u)
             self._last_in = u
             model.step(step_size, *u)
             return self._write_outputs(model.outputs())

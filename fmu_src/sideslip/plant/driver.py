@@ -24,6 +24,7 @@ import numpy as np
 from ..params import ParameterError, check, param
 from ..signals import DRIVER_OUTPUTS
 from ..vehicles import GRAVITY, VehicleParams, load_vehicle
+from .clock import StepClock
 from .maneuvers import TimeTable, parse_maneuver
 
 __all__ = ["DriverConfig", "Driver", "DRIVER_INPUTS"]
@@ -43,7 +44,7 @@ class DriverConfig:
     road_bank: str = param("0", "Dimensionless", "Bank angle [rad]: a number or a time table")
     wind_force: str = param("0", "Dimensionless", "Lateral wind force [N]: a number or a time table")
     wind_moment: str = param("0", "Dimensionless", "Wind yaw moment [N.m]: a number or a time table")
-    speed_kp: float = param(1.5, "Frequency", "Speed controller: acceleration per speed error", ge=0, le=50)
+    speed_kp: float = param(1.5, "InverseTime", "Speed controller: acceleration per speed error", ge=0, le=50)
     speed_ki: float = param(0.3, "IntegralGain", "Speed controller: integral gain", ge=0, le=50)
     accel_max: float = param(4.0, "Acceleration", "Largest drive acceleration the driver asks for", gt=0, le=20)
     decel_max: float = param(9.0, "Acceleration", "Largest braking deceleration the driver asks for", gt=0, le=20)
@@ -122,7 +123,7 @@ class Driver:
 
     def reset(self) -> None:
         """Initial state at t = 0 with outputs for t = 0."""
-        self.t = 0.0
+        self._clock = StepClock()
         self._idx = 0
         self._integ = 0.0
         self._delta_hold = None
@@ -165,7 +166,7 @@ class Driver:
         if not h > 0.0:
             raise ValueError(f"step size must be > 0, got {h}")
         cfg, v, plan = self.config, self.vehicle, self.plan
-        self.t = t = self.t + h
+        t = self._clock.tick(h)
 
         # ---- steering
         if plan.steer_sw is not None and t >= plan.t_open:
@@ -200,6 +201,11 @@ class Driver:
         force = min(max(force, f_lo), f_hi)
         torque = force * v.R_w if t < plan.coast_from else 0.0
         self._out = self._pack(t, delta, max(torque, 0.0), max(-torque, 0.0), v_ref)
+
+    @property
+    def t(self) -> float:
+        """Time of the last step [s]."""
+        return self._clock.t
 
     def outputs(self) -> tuple:
         """Outputs ordered as :data:`sideslip.signals.DRIVER_OUTPUTS`."""

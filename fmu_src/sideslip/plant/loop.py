@@ -1,7 +1,9 @@
 """Library-only closed loop of driver, plant and (optionally) sensors, without FMI.
 
-Same execution order and step semantics as the fmpy master (Gauss-Seidel: driver, plant,
-sensors), so library runs and FMU runs of a scenario can be compared sample for sample.
+Same semantics as the fmpy master: Gauss-Seidel in the order driver, plant, sensors, each
+model taking its inputs by contract name from the latest outputs of the others (inputs
+nobody provides stay at 0, e.g. the plant's ``Mz_dyc`` without a controller).  FMU and
+library runs of a scenario can therefore be compared sample for sample.
 """
 from __future__ import annotations
 
@@ -24,29 +26,21 @@ def run_loop(plant: VehiclePlant, driver: Driver, duration: float, step: float =
         ``"time"`` and every output of the driver, plant and sensors (arrays of length
         ``n + 1``, sample 0 being the initial outputs).
     """
+    models = [m for m in (driver, plant, sensors) if m is not None]
+    names = [nm for m in models for nm in m.output_names]
+    if len(set(names)) != len(names):  # pragma: no cover - the catalogue keeps them distinct
+        raise RuntimeError("output names of the models overlap")
     n = int(round(duration / step))
-    names = list(driver.output_names) + list(plant.output_names) + (
-        list(sensors.output_names) if sensors else [])
-    names = list(dict.fromkeys(names))   # driver and plant share no names; keep order
+    latest: dict[str, float] = {}
+    for m in models:
+        latest.update(m.output_dict())
     rec = np.empty((n + 1, len(names)))
-    plant_out = plant.output_dict()
-
-    def record(k):
-        row = {**driver.output_dict(), **plant.output_dict(), **(sensors.output_dict() if sensors else {})}
-        rec[k] = [row[nm] for nm in names]
-
-    record(0)
-    plant_inputs = {name: 0.0 for name in plant.input_names}
+    rec[0] = [latest[nm] for nm in names]
     for k in range(n):
-        driver.step(step, *(plant_out[nm] for nm in driver.input_names))
-        for nm, val in driver.output_dict().items():      # connect by contract name
-            if nm in plant_inputs:
-                plant_inputs[nm] = val
-        plant.step(step, **plant_inputs)
-        plant_out = plant.output_dict()
-        if sensors is not None:
-            sensors.step(step, *(plant_out[nm] for nm in sensors.input_names))
-        record(k + 1)
+        for m in models:
+            m.step(step, *(latest.get(nm, 0.0) for nm in m.input_names))
+            latest.update(zip(m.output_names, m.outputs()))
+        rec[k + 1] = [latest[nm] for nm in names]
     out = {nm: rec[:, i] for i, nm in enumerate(names)}
     out["time"] = np.arange(n + 1) * step
     return out

@@ -135,7 +135,7 @@ class _Base:
 
     v0: float = param(20.0, "Velocity", "Initial speed (the plant starts rolling at it)", ge=0, le=70)
     v: float = param(20.0, "Velocity", "Target speed after the ramp", ge=0, le=70)
-    t_go: float = param(0.0, "Time", "Time the speed ramp from v0 to v starts", ge=0)
+    t_go: float = param(0.0, "Time", "Time the speed ramp from v0 to v starts", ge=0, le=3600)
     accel: float = param(1.5, "Acceleration", "Acceleration (or deceleration) of the speed ramp", gt=0, le=10)
     duration: float = param(20.0, "Time", "Suggested length of the run", gt=0, le=3600)
 
@@ -165,7 +165,7 @@ class SineSteer(_Base):
     amplitude: float = param(50 * _DEG, "Angle", "Handwheel amplitude", ge=0, le=15)
     frequency: float = param(0.5, "Frequency", "Steering frequency", gt=0, le=10)
     cycles: float = param(3.0, "Dimensionless", "Number of periods", gt=0, le=1000)
-    t_start: float = param(3.0, "Time", "Start of steering", ge=0)
+    t_start: float = param(3.0, "Time", "Start of steering", ge=0, le=3600)
 
     def plan(self, vehicle) -> Plan:
         a, f, t0, t1 = self.amplitude, self.frequency, self.t_start, self.t_start + self.cycles / self.frequency
@@ -182,7 +182,7 @@ class StepSteer(_Base):
     amplitude: float = param(90 * _DEG, "Angle", "Handwheel angle held after the ramp (sign = direction)",
                              ge=-15, le=15)
     rate: float = param(500 * _DEG, "AngularVelocity", "Handwheel rate of the ramp", gt=0, le=50)
-    t_start: float = param(3.0, "Time", "Start of steering", ge=0)
+    t_start: float = param(3.0, "Time", "Start of steering", ge=0, le=3600)
     coast: bool = param(False, "Dimensionless", "Release the throttle at t_start (J-turn)")
 
     def plan(self, vehicle) -> Plan:
@@ -212,7 +212,7 @@ class SlowlyIncreasingSteer(_Base):
     v: float = param(80 / 3.6, "Velocity", "Speed held", ge=0, le=70)
     rate: float = param(13.5 * _DEG, "AngularVelocity", "Handwheel rate", gt=0, le=10)
     direction: float = param(1.0, "Dimensionless", "+1 steer left, -1 steer right", choices=(1.0, -1.0))
-    t_start: float = param(2.0, "Time", "Start of the ramp", ge=0)
+    t_start: float = param(2.0, "Time", "Start of the ramp", ge=0, le=3600)
     max_angle: float = param(270 * _DEG, "Angle", "Handwheel angle where the ramp stops", gt=0, le=15)
 
     def plan(self, vehicle) -> Plan:
@@ -239,7 +239,7 @@ class SineWithDwell(_Base):
     frequency: float = param(0.7, "Frequency", "Sine frequency", gt=0, le=5)
     dwell: float = param(0.5, "Time", "Dwell at the second peak", ge=0, le=5)
     direction: float = param(1.0, "Dimensionless", "+1 steer left first, -1 right first", choices=(1.0, -1.0))
-    t_start: float = param(3.0, "Time", "Beginning of steer", ge=0)
+    t_start: float = param(3.0, "Time", "Beginning of steer", ge=0, le=3600)
     max_amplitude: float = param(270 * _DEG, "Angle", "Cap of the amplitude (FMVSS 126: 270 deg)", gt=0, le=15)
 
     @property
@@ -279,8 +279,8 @@ class BrakeInTurn(_Base):
 
     amplitude: float = param(200 * _DEG, "Angle", "Handwheel angle of the turn", ge=-15, le=15)
     rate: float = param(200 * _DEG, "AngularVelocity", "Handwheel rate of the ramps", gt=0, le=50)
-    t_start: float = param(5.0, "Time", "Start of braking and steering", ge=0)
-    t_release: float = param(7.5, "Time", "Time the handwheel is back to zero", ge=0)
+    t_start: float = param(5.0, "Time", "Start of braking and steering", ge=0, le=3600)
+    t_release: float = param(7.5, "Time", "Time the handwheel is back to zero", ge=0, le=3600)
     decel: float = param(0.2 * GRAVITY, "Acceleration", "Target deceleration", gt=0, le=10)
     v_end: float = param(0.0, "Velocity", "Speed where braking stops", ge=0, le=70)
 
@@ -378,7 +378,8 @@ class CircleTurn(_Base):
             raise ParameterError("radius", self.radius, "|radius| >= 5 m")
 
     def plan(self, vehicle) -> Plan:
-        circle = _distance(self.v0, self.v, self.t_go, self.accel, self.duration) + 100.0
+        # three times the scheduled distance, so runs longer than `duration` stay on the circle
+        circle = 3.0 * _distance(self.v0, self.v, self.t_go, self.accel, self.duration) + 100.0
         path = P.arc_chain([(self.lead_in, math.inf), (circle, self.radius)], ds=0.25)
         return Plan(self._speed(), path, duration=self.duration)
 

@@ -44,12 +44,14 @@ class Path:
         self._xl, self._yl, self._sl = x.tolist(), y.tolist(), self.s.tolist()
 
     def project(self, px: float, py: float, hint: int = 0) -> tuple[int, float]:
-        """Index and station of the sample nearest to ``(px, py)``, by hill-climbing from ``hint``.
+        """Nearest sample index and continuous station of the foot point of ``(px, py)``.
 
-        Walking from the previous index keeps the follower on the right branch where a path
-        crosses itself and costs O(1) per call when the vehicle moves a few samples per step.
+        The nearest sample is found by hill-climbing from ``hint`` (O(1) per call while the
+        vehicle advances a few samples per step, and it keeps the follower on the right
+        branch where a path crosses itself); the station is then the orthogonal projection
+        onto the adjacent segment, so it moves smoothly instead of in sample-sized jumps.
         """
-        xl, yl, n, closed = self._xl, self._yl, len(self._xl), self.closed
+        xl, yl, sl, n, closed = self._xl, self._yl, self._sl, len(self._xl), self.closed
 
         def dist(i):
             return (xl[i] - px) ** 2 + (yl[i] - py) ** 2
@@ -67,19 +69,34 @@ class Path:
                 if dj >= d:
                     break
                 i, d = j, dj
-        return i, self._sl[i]
+        # foot point on the segment after i, else on the one before it
+        for a in (i, i - 1):
+            b = a + 1
+            if closed:
+                a, b = a % n, b % n
+            elif a < 0 or b >= n:
+                continue
+            ex, ey = xl[b] - xl[a], yl[b] - yl[a]
+            seg2 = ex * ex + ey * ey
+            w = ((px - xl[a]) * ex + (py - yl[a]) * ey) / seg2
+            if 0.0 <= w <= 1.0:
+                return i, sl[a] + w * math.sqrt(seg2)
+        return i, sl[i]
 
     def point_at(self, station: float) -> tuple[float, float]:
-        """Point at station ``station`` [m] (wrapped on closed paths, clamped otherwise)."""
-        sl = self._sl
+        """Point at station ``station`` [m]: wrapped on closed paths; before the start and past
+        the end of an open path, continued along the first / last heading."""
+        sl, xl, yl = self._sl, self._xl, self._yl
         if self.closed:
             station %= sl[-1]
-        else:
-            station = min(max(station, 0.0), sl[-1])
+        elif station > sl[-1] or station < 0.0:
+            i = len(sl) - 1 if station > 0.0 else 0
+            psi = self.psi[i]
+            over = station - sl[i]
+            return xl[i] + over * math.cos(psi), yl[i] + over * math.sin(psi)
         i = min(max(bisect_right(sl, station) - 1, 0), len(sl) - 2)
         w = (station - sl[i]) / (sl[i + 1] - sl[i])
-        return (self._xl[i] + w * (self._xl[i + 1] - self._xl[i]),
-                self._yl[i] + w * (self._yl[i + 1] - self._yl[i]))
+        return xl[i] + w * (xl[i + 1] - xl[i]), yl[i] + w * (yl[i + 1] - yl[i])
 
     def curvature_at(self, station: float) -> float:
         """Curvature [1/m] at ``station`` (nearest sample; positive turning left)."""

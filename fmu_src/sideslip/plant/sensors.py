@@ -31,6 +31,7 @@ import numpy as np
 
 from ..params import ParameterError, check, param
 from ..signals import SENSOR_OUTPUTS
+from .clock import StepClock
 
 __all__ = ["SensorConfig", "SensorSuite", "SENSOR_INPUTS", "SO", "parse_windows"]
 
@@ -90,7 +91,8 @@ class SensorConfig:
     steer_sigma: float = param(0.0005, "Angle", "Noise of delta_m (road-wheel angle)", ge=0, le=0.1)
     steer_bias: float = param(0.0, "Angle", "Bias of delta_m (road-wheel angle)", ge=-0.1, le=0.1)
     steer_fault: str = param("none", "Dimensionless", "Steering-sensor fault mode", choices=("none", "stuck", "offset"))
-    steer_fault_time: float = param(1e9, "Time", "Time the steering-sensor fault starts", ge=0)
+    steer_fault_time: float = param(1e9, "Time", "Time the steering-sensor fault starts (1e9: never)",
+                                    ge=0, le=1e9)
     steer_fault_offset: float = param(0.0, "Angle", "Offset added by an 'offset' steering fault", ge=-0.5, le=0.5)
     gps_rate: float = param(10.0, "Frequency", "GPS fix rate", ge=0.1, le=100)
     gps_delay: float = param(0.0, "Time", "GPS latency (a fix shows the velocity of this long ago)", ge=0, le=2)
@@ -175,7 +177,7 @@ class SensorSuite:
         self._rng = np.random.default_rng([cfg.seed, 1])   # noise stream, independent of the episodes
         self._noise: list = []
         self._noise_i = 0
-        self.t = 0.0
+        self._clock = StepClock()
         self._imu = _Sampler(cfg.imu_rate)
         self._wheel = _Sampler(cfg.wheel_rate)
         self._steer = _Sampler(cfg.steer_rate)
@@ -229,7 +231,7 @@ class SensorSuite:
         if not h > 0.0:
             raise ValueError(f"step size must be > 0, got {h}")
         cfg, out, g = self.config, self._out, self._gauss
-        self.t = t = self.t + h
+        t = self._clock.tick(h)
         c, s = math.cos(yaw), math.sin(yaw)
         hist = self._hist
         hist.append((t, vx * c - vy * s, vx * s + vy * c))
@@ -242,11 +244,12 @@ class SensorSuite:
             out[SO.AY_M] = ay + cfg.ay_bias + cfg.ay_sigma * g()
             out[SO.YAW_RATE_M] = yaw_rate + cfg.yaw_rate_bias + cfg.yaw_rate_sigma * g()
             out[SO.ROLL_RATE_M] = roll_rate + cfg.roll_rate_bias + cfg.roll_rate_sigma * g()
-        fault = t >= cfg.steer_fault_time and cfg.steer_fault != "none"
         if self._steer.due(t):
+            fault = t >= cfg.steer_fault_time and cfg.steer_fault != "none"
             if not (fault and cfg.steer_fault == "stuck"):
                 out[SO.DELTA_M] = delta_f + cfg.steer_bias + cfg.steer_sigma * g() + (
                     cfg.steer_fault_offset if fault else 0.0)
+            out[SO.DELTA_FAULT_ACTIVE] = 1.0 if fault else 0.0    # describes the held sample
         if self._wheel.due(t):
             k, sig = 1.0 + cfg.wheel_radius_error, cfg.wheel_sigma
             out[SO.OMEGA_FL_M] = omega_fl * k + sig * g()
@@ -266,8 +269,8 @@ class SensorSuite:
                 out[SO.GPS_FRESH] = 1.0
                 self._gps_seen = True
         out[SO.GPS_VALID] = 1.0 if (self._gps_seen and not outage) else 0.0
-        episode = self._episode_at(t)
         if self._mag.due(t):
+            episode = self._episode_at(t)
             fx, fy, fz = self._field
             bx, by = c * fx + s * fy, -s * fx + c * fy           # yaw (Rz^T)
             cr, sr = math.cos(roll), math.sin(roll)
@@ -279,8 +282,7 @@ class SensorSuite:
             out[SO.MAG_X] = mx + sig * g()
             out[SO.MAG_Y] = my + sig * g()
             out[SO.MAG_Z] = mz + sig * g()
-        out[SO.DELTA_FAULT_ACTIVE] = 1.0 if fault else 0.0
-        out[SO.MAG_DISTURBANCE_ACTIVE] = 1.0 if episode is not None else 0.0
+            out[SO.MAG_DISTURBANCE_ACTIVE] = 1.0 if episode is not None else 0.0  # describes the held sample
 
     def _episode_at(self, t: float):
         eps = self.episodes
@@ -291,6 +293,11 @@ class SensorSuite:
         if i < len(eps) and eps[i][0] <= t:
             return eps[i]
         return None
+
+    @property
+    def t(self) -> float:
+        """Time of the last step [s]."""
+        return self._clock.t
 
     def outputs(self) -> tuple:
         """Outputs ordered as :data:`sideslip.signals.SENSOR_OUTPUTS` (Booleans as 0.0/1.0)."""

@@ -60,6 +60,7 @@ import numpy as np
 from ..params import check, param
 from ..signals import PLANT_INPUTS, PLANT_OUTPUTS
 from ..vehicles import GRAVITY, VehicleParams, load_vehicle
+from .clock import StepClock
 from .tires import dugoff
 
 __all__ = ["St", "PlantConfig", "VehiclePlant"]
@@ -95,8 +96,8 @@ class PlantConfig:
     vehicle_overrides: str = param("", "Dimensionless", "Vehicle parameter overrides, e.g. 'm=2000, I_zz=3800'")
     vx0: float = param(0.0, "Velocity", "Initial longitudinal speed (wheels rolling freely)", ge=0, le=80)
     yaw0: float = param(0.0, "Angle", "Initial yaw angle", ge=-math.pi, le=math.pi)
-    X0: float = param(0.0, "Position", "Initial east position")
-    Y0: float = param(0.0, "Position", "Initial north position")
+    X0: float = param(0.0, "Position", "Initial east position", ge=-1e6, le=1e6)
+    Y0: float = param(0.0, "Position", "Initial north position", ge=-1e6, le=1e6)
     v_min: float = param(1.0, "Velocity", "Slip regularisation speed (tire acts as a damper below it)",
                          gt=0.05, le=5.0)
     omega_eps: float = param(0.5, "AngularVelocity", "Regularisation of brake and rolling-resistance torque "
@@ -148,15 +149,20 @@ class VehiclePlant:
         # constants of the derivative, unpacked as locals (attribute lookups are slow)
         self._k = (
             v.m, mshs, g, v.l_f, v.l_r, 0.5 * v.t_f, 0.5 * v.t_r, v.R_w, 1.0 / v.I_w, v.C_sigma,
-            v.m * g * v.l_r / (2 * l), v.m * g * v.l_f / (2 * l), v.m * v.h_cg / (2 * l),
+            v.m * v.h_cg / (2 * l),
             v.K_phi_f / v.t_f, v.K_phi_r / v.t_r, v.C_phi_f / v.t_f, v.C_phi_r / v.t_r,
             (v.m_s * v.l_rs / l * h_ra + v.m_uf * v.h_uf) / v.t_f,
             (v.m_s * v.l_fs / l * h_ra + v.m_ur * v.h_ur) / v.t_r,
             cfg.v_min, cfg.omega_eps, *minv[0], *minv[1], *minv[2],
-            v.K_phi_f + v.K_phi_r, v.C_phi_f + v.C_phi_r, mshs * g, 1.0 / cfg.tau_load,
+            v.C_phi_f + v.C_phi_r, 1.0 / cfg.tau_load,
             v.f_rr * v.R_w, 0.5 * v.rho_air * v.CdA, v.eps_v,
+            1.0 if v.motor_axle == "front" else 0.0, 0.0 if v.motor_axle == "front" else 1.0,
         )
-        self._motor_front = 1.0 if v.motor_axle == "front" else 0.0
+        self._splits = (0.5 * v.drive_split_front, 0.5 * (1.0 - v.drive_split_front),
+                        0.5 * v.brake_split_front, 0.5 * (1.0 - v.brake_split_front))
+        # static wheel loads on a flat road, gravity-roll and roll-stiffness terms (scaled by bank)
+        self._static = (v.m * g * v.l_r / (2 * l), v.m * g * v.l_f / (2 * l), v.m * g, mshs * g,
+                        v.K_phi_f + v.K_phi_r)
         self._motor_arm = (v.t_f if v.motor_axle == "front" else v.t_r) / v.R_w   # Mz = arm * dT
         self._mu_cache = (None, (v.C_alpha_f, v.C_alpha_r))
         # stiffness of the wheel-spin mode: R^2 C_sigma / (I_w max(|R w|, v_min)) + brake term
@@ -174,28 +180,47 @@ class VehiclePlant:
         x[St.W_FL] = x[St.W_FR] = x[St.W_RL] = x[St.W_RR] = w0
         x[St.X], x[St.Y], x[St.PSI] = cfg.X0, cfg.Y0, cfg.yaw0
         self.x = x
-        self.t = 0.0
+        self._clock = StepClock()
         self.dT_motor = 0.0          # actual motor torque difference [N m]
         self.n_substeps = 1
         self._u = (0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
         self._out = self._evaluate_outputs()
 
     # ------------------------------------------------------------------ dynamics
-    def _deriv(self, x, cd, sd, t_fl, t_fr, t_rl, t_rr, tb_f, tb_r, mu, caf, car, sb, cb, fw, mw, out=None):
-        """State derivative (eqs 1-6 re-derived, 7-14) at state ``x`` for held inputs."""
-        (m, mshs, g, lf, lr, tf2, tr2, R, inv_iw, cs, fz0f, fz0r, kx, kf, kr, cf, cr, lyf, lyr,
-         vmin, weps, a00, a01, a02, a10, a11, a12, a20, a21, a22, kphi, cphi, msghs, inv_tau,
-         frr_r, drag, eps_v) = self._k
+    def _held(self, delta_f, T_drive, T_brake, mu, bank_angle, F_wind_y, M_wind_z) -> tuple:
+        """Quantities of the derivative that are constant while the inputs are held."""
+        v = self.vehicle
+        if self._mu_cache[0] != mu:
+            self._mu_cache = (mu, v.cornering_stiffness(mu))
+        caf, car = self._mu_cache[1]
+        d_f, d_r, b_f, b_r = self._splits
+        tb = T_brake if T_brake > 0.0 else 0.0
+        fz0f, fz0r, mg, mshs_g, kphi = self._static
+        cb, sb = cos(bank_angle), sin(bank_angle)
+        return (cos(delta_f), sin(delta_f), d_f * T_drive, d_r * T_drive, b_f * tb, b_r * tb, mu, caf, car,
+                fz0f * cb, fz0r * cb, mg * sb, mshs_g * cb - kphi, mshs_g * sb, GRAVITY * sb, cb,
+                F_wind_y, M_wind_z)
+
+    def _deriv(self, x, held, dT, out=None):
+        """State derivative (eqs 1-6 re-derived, 7-14) at state ``x``.
+
+        ``held`` comes from :meth:`_held`; ``dT`` is the motor torque difference [N m].
+        """
+        (m, mshs, g, lf, lr, tf2, tr2, R, inv_iw, cs, kx, kf, kr, cf, cr, lyf, lyr,
+         vmin, weps, a00, a01, a02, a10, a11, a12, a20, a21, a22, cphi, inv_tau,
+         frr_r, drag, eps_v, mf, mr) = self._k
+        (cd, sd, tq_f, tq_r, tb_f, tb_r, mu, caf, car, fz0f, fz0r, mgsb, roll_k, roll_g, gsb, cb,
+         fw, mw) = held
         vx, vy, r, phi, p, w1, w2, w3, w4, _, _, psi, axf, ayf = x
 
         # quasi-static loads (eqs 11-14 re-derived)
         dfx = kx * axf
         dff = kf * phi + cf * p + lyf * ayf
         dfr = kr * phi + cr * p + lyr * ayf
-        fz1 = fz0f * cb - dfx - dff
-        fz2 = fz0f * cb - dfx + dff
-        fz3 = fz0r * cb + dfx - dfr
-        fz4 = fz0r * cb + dfx + dfr
+        fz1 = fz0f - dfx - dff
+        fz2 = fz0f - dfx + dff
+        fz3 = fz0r + dfx - dfr
+        fz4 = fz0r + dfx + dfr
         fz1 = fz1 if fz1 > 0.0 else 0.0
         fz2 = fz2 if fz2 > 0.0 else 0.0
         fz3 = fz3 if fz3 > 0.0 else 0.0
@@ -237,16 +262,16 @@ class VehiclePlant:
         by2 = fx2 * sd + fy2 * cd
         fx_sum = bx1 + bx2 + fx3 + fx4 - drag * vx * abs(vx)
         fy_tires = by1 + by2 + fy3 + fy4 + fw
-        fy_sum = fy_tires - m * g * sb - mshs * r * r * phi
+        fy_sum = fy_tires - mgsb - mshs * r * r * phi
         mz_sum = lf * (by1 + by2) - lr * (fy3 + fy4) + tf2 * (bx2 - bx1) + tr2 * (fx4 - fx3) + mw
-        roll_rhs = mshs * g * sb + (msghs * cb - kphi) * phi - cphi * p
+        roll_rhs = roll_g + roll_k * phi - cphi * p
 
         # eqs 2-4 solved for (dvy + r vx, dr, dp) with the constant mass matrix
         a_lat = a00 * fy_sum + a01 * mz_sum + a02 * roll_rhs
         dr = a10 * fy_sum + a11 * mz_sum + a12 * roll_rhs
         dp = a20 * fy_sum + a21 * mz_sum + a22 * roll_rhs
         ax_spec = fx_sum / m - (mshs / m) * (dr * phi + 2.0 * r * p)          # eq 1
-        ay_spec = a_lat + g * sb                                               # road axes
+        ay_spec = a_lat + gsb                                                  # road axes
 
         # wheel spin (eq 6) with regularised brake and rolling resistance
         s1 = w1 / (abs(w1) + weps)
@@ -263,10 +288,10 @@ class VehiclePlant:
                 dr,
                 p,
                 dp,
-                (t_fl - R * fx1 - (tb_f + frr_r * fz1) * s1) * inv_iw,
-                (t_fr - R * fx2 - (tb_f + frr_r * fz2) * s2) * inv_iw,
-                (t_rl - R * fx3 - (tb_r + frr_r * fz3) * s3) * inv_iw,
-                (t_rr - R * fx4 - (tb_r + frr_r * fz4) * s4) * inv_iw,
+                (tq_f - mf * dT - R * fx1 - (tb_f + frr_r * fz1) * s1) * inv_iw,
+                (tq_f + mf * dT - R * fx2 - (tb_f + frr_r * fz2) * s2) * inv_iw,
+                (tq_r - mr * dT - R * fx3 - (tb_r + frr_r * fz3) * s3) * inv_iw,
+                (tq_r + mr * dT - R * fx4 - (tb_r + frr_r * fz4) * s4) * inv_iw,
                 vx * cpsi - vy * spsi,
                 vx * spsi + vy * cpsi,
                 r,
@@ -301,27 +326,17 @@ class VehiclePlant:
             raise ValueError(f"step size must be > 0, got {h}")
         v = self.vehicle
         self._u = (delta_f, T_drive, T_brake, Mz_dyc, mu, bank_angle, F_wind_y, M_wind_z)
-        cd, sd = cos(delta_f), sin(delta_f)
-        cb, sb = cos(bank_angle), sin(bank_angle)
-        if self._mu_cache[0] != mu:
-            self._mu_cache = (mu, v.cornering_stiffness(mu))
-        caf, car = self._mu_cache[1]
-        tq_f = 0.5 * v.drive_split_front * T_drive
-        tq_r = 0.5 * (1.0 - v.drive_split_front) * T_drive
-        tb = T_brake if T_brake > 0.0 else 0.0
-        tb_f = 0.5 * v.brake_split_front * tb
-        tb_r = 0.5 * (1.0 - v.brake_split_front) * tb
+        held = self._held(delta_f, T_drive, T_brake, mu, bank_angle, F_wind_y, M_wind_z)
         # in-wheel motors: Mz = (t / R) dT, saturated, first-order lag (exact)
         dT_cmd = Mz_dyc / self._motor_arm
         lim = v.motor_T_max
         dT_cmd = lim if dT_cmd > lim else (-lim if dT_cmd < -lim else dT_cmd)
-        mf = self._motor_front
-        mr = 1.0 - mf
 
-        n = self._substeps(h, tb_f if tb_f > tb_r else tb_r)
+        n = self._substeps(h, held[4] if held[4] > held[5] else held[5])
         self.n_substeps = n
         hs = h / n
         half = 0.5 * hs
+        h6 = hs / 6.0
         tau = v.motor_tau
         decay_half = math.exp(-half / tau) if tau > 0.0 else 0.0
         x = self.x
@@ -330,57 +345,43 @@ class VehiclePlant:
         for _ in range(n):
             dT_mid = dT_cmd + (dT - dT_cmd) * decay_half
             dT_end = dT_cmd + (dT_mid - dT_cmd) * decay_half
-            k1 = deriv(x, cd, sd, tq_f - mf * dT, tq_f + mf * dT, tq_r - mr * dT, tq_r + mr * dT,
-                       tb_f, tb_r, mu, caf, car, sb, cb, F_wind_y, M_wind_z)
-            xs = [a + half * b for a, b in zip(x, k1)]
-            args = (cd, sd, tq_f - mf * dT_mid, tq_f + mf * dT_mid, tq_r - mr * dT_mid, tq_r + mr * dT_mid,
-                    tb_f, tb_r, mu, caf, car, sb, cb, F_wind_y, M_wind_z)
-            k2 = deriv(xs, *args)
-            xs = [a + half * b for a, b in zip(x, k2)]
-            k3 = deriv(xs, *args)
-            xs = [a + hs * b for a, b in zip(x, k3)]
-            k4 = deriv(xs, cd, sd, tq_f - mf * dT_end, tq_f + mf * dT_end, tq_r - mr * dT_end,
-                       tq_r + mr * dT_end, tb_f, tb_r, mu, caf, car, sb, cb, F_wind_y, M_wind_z)
-            h6 = hs / 6.0
+            k1 = deriv(x, held, dT)
+            k2 = deriv([a + half * b for a, b in zip(x, k1)], held, dT_mid)
+            k3 = deriv([a + half * b for a, b in zip(x, k2)], held, dT_mid)
+            k4 = deriv([a + hs * b for a, b in zip(x, k3)], held, dT_end)
             x = [a + h6 * (b1 + 2.0 * (b2 + b3) + b4) for a, b1, b2, b3, b4 in zip(x, k1, k2, k3, k4)]
             dT = dT_end
         x[St.PSI] = _wrap(x[St.PSI])
         self.x = x
         self.dT_motor = dT
-        self.t += h
-        self._out = self._outputs_at(x, (cd, sd, tq_f - mf * dT, tq_f + mf * dT, tq_r - mr * dT,
-                                         tq_r + mr * dT, tb_f, tb_r, mu, caf, car, sb, cb, F_wind_y, M_wind_z))
+        self._clock.tick(h)
+        self._out = self._outputs_at(x, held)
 
     # ------------------------------------------------------------------ outputs
     def _evaluate_outputs(self) -> tuple:
         """Outputs of the current state for the last held inputs (used after reset)."""
-        v = self.vehicle
         delta_f, T_drive, T_brake, _, mu, bank, fw, mw = self._u
-        caf, car = v.cornering_stiffness(mu)
-        tq_f = 0.5 * v.drive_split_front * T_drive
-        tq_r = 0.5 * (1.0 - v.drive_split_front) * T_drive
-        tb = T_brake if T_brake > 0.0 else 0.0
-        mf, dT = self._motor_front, self.dT_motor
-        mr = 1.0 - mf
-        return self._outputs_at(self.x, (cos(delta_f), sin(delta_f), tq_f - mf * dT, tq_f + mf * dT,
-                                         tq_r - mr * dT, tq_r + mr * dT, 0.5 * v.brake_split_front * tb,
-                                         0.5 * (1.0 - v.brake_split_front) * tb, mu, caf, car, sin(bank),
-                                         cos(bank), fw, mw))
+        return self._outputs_at(self.x, self._held(delta_f, T_drive, T_brake, mu, bank, fw, mw))
 
-    def _outputs_at(self, x, args) -> tuple:
-        """Plant outputs at state ``x``; ``args`` are the held-input arguments of :meth:`_deriv`."""
+    def _outputs_at(self, x, held) -> tuple:
+        """Plant outputs at state ``x`` for the held inputs ``held`` (see :meth:`_held`)."""
         extra: list = []
-        self._deriv(x, *args, extra)
+        self._deriv(x, held, self.dT_motor, extra)
         ax_spec, ay_road, fy_f, fy_r, fz1, fz2, fz3, fz4, a1, a2, a3, a4 = extra
         phi = x[St.PHI]
-        sb, cb = args[11], args[12]
-        bank = atan2(sb, cb)
+        gsb, cb = held[14], held[15]
+        bank = atan2(gsb, GRAVITY * cb)
         # body-fixed accelerometer: road-axis specific force rotated by the suspension roll
         ay_body = cos(phi) * ay_road + sin(phi) * GRAVITY * cb
         vx, vy = x[St.VX], x[St.VY]
         return (vx, vy, x[St.R], atan2(vy, vx), x[St.PSI], bank + phi, x[St.P], ax_spec, ay_body,
                 x[St.X], x[St.Y], x[St.W_FL], x[St.W_FR], x[St.W_RL], x[St.W_RR], fy_f, fy_r, fz1, fz2, fz3, fz4,
                 0.5 * (a1 + a2), 0.5 * (a3 + a4), self._motor_arm * self.dT_motor)
+
+    @property
+    def t(self) -> float:
+        """Time of the last step [s]."""
+        return self._clock.t
 
     def outputs(self) -> tuple:
         """Outputs at the current time, ordered as :data:`sideslip.signals.PLANT_OUTPUTS`."""

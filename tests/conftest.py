@@ -1,0 +1,112 @@
+"""Shared fixtures: a fresh build of every FMU per session and an fmpy harness by variable name."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from sideslip.fmi.build import build_fmus
+
+
+@pytest.fixture(scope="session")
+def fmu_dir(tmp_path_factory) -> Path:
+    """Every registered FMU, built from scratch into a session folder (exercises the builder)."""
+    out = tmp_path_factory.mktemp("fmus")
+    build_fmus(None, out, force=True, log=lambda msg: None)
+    return out
+
+
+class FmuHarness:
+    """One FMU instance driven through fmpy by variable name, collecting log messages."""
+
+    def __init__(self, path: Path, instance: str = "inst", logging: bool = False):
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+        from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE
+        from fmpy import calloc, free
+
+        self.md = read_model_description(str(path))
+        self.vars = {v.name: v for v in self.md.modelVariables}
+        self.unzip = extract(str(path))
+        self.messages: list[tuple[int, str]] = []
+
+        def logger(env, name, status, category, message):
+            self.messages.append((status, message.decode() if message else ""))
+
+        cb = fmi2CallbackFunctions()
+        cb.logger = fmi2CallbackLoggerTYPE(logger)
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self._cb = cb
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzip,
+                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=instance)
+        self.fmu.instantiate(callbacks=cb, loggingOn=logging)
+        self.t = 0.0
+
+    def set(self, **values):
+        for name, value in values.items():
+            v = self.vars[name]
+            if v.type == "Real":
+                self.fmu.setReal([v.valueReference], [float(value)])
+            elif v.type == "Integer":
+                self.fmu.setInteger([v.valueReference], [int(value)])
+            elif v.type == "Boolean":
+                self.fmu.setBoolean([v.valueReference], [bool(value)])
+            else:
+                self.fmu.setString([v.valueReference], [str(value)])
+
+    def get(self, *names):
+        out = []
+        for name in names:
+            v = self.vars[name]
+            if v.type == "Real":
+                out.append(self.fmu.getReal([v.valueReference])[0])
+            elif v.type == "Boolean":
+                out.append(float(self.fmu.getBoolean([v.valueReference])[0]))
+            elif v.type == "Integer":
+                out.append(self.fmu.getInteger([v.valueReference])[0])
+            else:
+                out.append(self.fmu.getString([v.valueReference])[0])
+        return out
+
+    def outputs(self):
+        names = [v.name for v in self.md.modelVariables if v.causality == "output"]
+        return self.get(*names)
+
+    def init(self, **params):
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        self.set(**params)
+        self.fmu.exitInitializationMode()
+
+    def step(self, h=1e-3, **inputs):
+        self.set(**inputs)
+        status = self.fmu.fmi2DoStep(self.fmu.component, self.t, h, 1)
+        self.t += h
+        return status
+
+    def close(self):
+        try:
+            self.fmu.terminate()
+        finally:
+            self.fmu.fmi2FreeInstance(self.fmu.component)
+
+
+@pytest.fixture
+def harness(fmu_dir):
+    """Factory of FMU harnesses, freed at the end of the test."""
+    made = []
+
+    def make(name: str, instance: str = "inst", logging: bool = False) -> FmuHarness:
+        h = FmuHarness(fmu_dir / f"{name}.fmu", instance, logging)
+        made.append(h)
+        return h
+
+    yield make
+    for h in made:
+        h.close()
+
+
+def finite(values) -> bool:
+    return all(math.isfinite(v) for v in values if isinstance(v, float))

@@ -1,0 +1,147 @@
+"""The fmpy master, metrics, plots and the CLI."""
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from sideslip.cosim.master import Component, CoSimulation, MasterError
+from sideslip.cosim.metrics import estimate_metrics, format_table, scenario_summary, wrap
+from sideslip.cosim.runner import run_scenario, scenario_components
+from sideslip.cosim.scenarios import get_scenario
+from sideslip.params import build
+from sideslip.plant.driver import Driver, DriverConfig
+from sideslip.plant.loop import run_loop
+from sideslip.plant.sensors import SensorConfig, SensorSuite
+from sideslip.plant.vehicle import PlantConfig, VehiclePlant
+
+
+def test_fmu_closed_loop_equals_library_closed_loop(fmu_dir):
+    """Same scenario, same Gauss-Seidel order: the FMUs under the master reproduce the
+    library loop sample for sample (so the master adds nothing but transport)."""
+    sc = get_scenario("park2018_case2", duration=3.0)
+    comps, conns = scenario_components(sc)
+    with CoSimulation(comps, conns, fmu_dir=fmu_dir) as sim:
+        res = sim.run(3.0)
+    lib = run_loop(VehiclePlant(build(PlantConfig, sc.plant_params())), Driver(build(DriverConfig, sc.driver_params())),
+                   3.0, sensors=SensorSuite(build(SensorConfig, sc.sensor_params())))
+    assert np.array_equal(res["time"], lib["time"])
+    for inst, names in (("plant", VehiclePlant.output_names), ("driver", Driver.output_names),
+                        ("sensors", SensorSuite.output_names)):
+        for n in names:
+            assert np.max(np.abs(res[f"{inst}.{n}"].astype(float) - lib[n])) <= 1e-12, f"{inst}.{n}"
+    assert res.meta["unconnected_inputs"] == ["plant.Mz_dyc"]
+    assert "driver.delta_f -> plant.delta_f" in res.meta["connections"]
+    assert "driver.delta_f -> sensors.delta_f" in res.meta["connections"]
+    assert res.data.dtype["sensors.gps_fresh"] == np.bool_
+
+
+def test_record_every_and_csv(fmu_dir, tmp_path):
+    comps, conns = scenario_components(get_scenario("pi2011_low"))
+    with CoSimulation(comps, conns, fmu_dir=fmu_dir, record_every=10) as sim:
+        res = sim.run(0.5)
+    assert len(res.data) == 51 and res["time"][1] == pytest.approx(0.01)
+    res.to_csv(tmp_path / "r.csv")
+    header = (tmp_path / "r.csv").read_text().splitlines()[0].split(",")
+    assert header[0] == "time" and "plant.beta" in header and "sensors.gps_valid" in header
+
+
+def test_connection_errors_are_explicit(fmu_dir):
+    comps = [Component("VehiclePlant", "p1"), Component("VehiclePlant", "p2"), Component("VehicleSensors", "s")]
+    with pytest.raises(MasterError, match=r"s.ax could come from p1.ax, p2.ax"):
+        CoSimulation(comps, fmu_dir=fmu_dir).setup()
+    conns = [(f"p1.{n}", f"s.{n}") for n in SensorSuite.input_names if n != "delta_f"]
+    with CoSimulation(comps, conns, fmu_dir=fmu_dir) as sim:
+        res = sim.run(0.01)
+    assert "s.delta_f" in res.meta["unconnected_inputs"]
+    with pytest.raises(MasterError, match="no output 'nope'"):
+        CoSimulation(comps, [("p1.nope", "s.ax")], fmu_dir=fmu_dir).setup()
+    with pytest.raises(MasterError, match="parameters are:"):
+        CoSimulation([Component("VehiclePlant", parameters={"mass": 3})], fmu_dir=fmu_dir).setup()
+    with pytest.raises(MasterError, match="unique"):
+        CoSimulation([Component("VehiclePlant"), Component("VehiclePlant")], fmu_dir=fmu_dir)
+
+
+def test_master_reports_fmu_errors_with_their_messages(fmu_dir):
+    comps = [Component("VehiclePlant", parameters={"vehicle_overrides": "m=-1"})]
+    with pytest.raises(MasterError, match=r"parameter 'vehicle.m' = -1.0 is invalid"):
+        CoSimulation(comps, fmu_dir=fmu_dir).setup()
+
+
+def test_profile_mode_times_each_component(fmu_dir):
+    comps, conns = scenario_components(get_scenario("pi2011_low"))
+    with CoSimulation(comps, conns, fmu_dir=fmu_dir) as sim:
+        res = sim.run(0.5, profile=True)
+    assert set(res.meta["profile"]) == {"driver", "plant", "sensors"}
+    assert all(len(v) == 5 and min(v) > 0 for v in res.meta["profile"].values())
+
+
+# ---------------------------------------------------------------- metrics
+def _synthetic(beta_err=0.01):
+    t = np.arange(0, 10, 0.01)
+    beta = 0.05 * np.sin(t)
+    return {"time": t, "plant.vx": np.full_like(t, 10.0), "plant.vy": 10 * np.tan(beta), "plant.beta": beta,
+            "plant.yaw_rate": 0.1 * np.cos(t), "plant.ay": np.ones_like(t), "est.beta_hat": beta + beta_err,
+            "est.valid": t > 1.0, "driver.delta_f": np.zeros_like(t)}
+
+
+def test_estimate_metrics_on_known_errors():
+    m = estimate_metrics(_synthetic(0.01), "est")
+    assert m["beta_hat"]["rms"] == pytest.approx(math.degrees(0.01))
+    assert m["beta_hat"]["max"] == pytest.approx(math.degrees(0.01))
+    peak = np.max(np.abs(0.05 * np.sin(np.arange(0, 10, 0.01))))
+    assert m["beta_hat"]["norm_max_pct"] == pytest.approx(100 * 0.01 / peak)      # Pi 2011 eq 48
+    assert m["valid"] == pytest.approx(0.9, abs=0.002) and m["coverage"] == 1.0
+    assert "beta RMS" in format_table({"est": m})
+    assert scenario_summary(_synthetic())["max_abs_beta_deg"] == pytest.approx(math.degrees(peak))
+
+
+def test_angle_errors_wrap():
+    assert wrap(np.array([3 * math.pi / 2, -3 * math.pi / 2, math.pi]))== pytest.approx([-math.pi / 2, math.pi / 2, math.pi])
+    data = _synthetic(0.0)
+    data["est.beta_hat"] = data["plant.beta"] + 2 * math.pi
+    assert estimate_metrics(data, "est")["beta_hat"]["max"] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_low_speed_samples_are_not_evaluated():
+    data = _synthetic(0.01)
+    data["plant.vx"][:500] = 0.5
+    data["plant.vy"][:500] = 0.0
+    data["est.beta_hat"][:500] = 1.0              # garbage while standing still
+    m = estimate_metrics(data, "est")
+    assert m["coverage"] == pytest.approx(0.5) and m["beta_hat"]["max"] == pytest.approx(math.degrees(0.01))
+
+
+# ---------------------------------------------------------------- runner and CLI
+def test_run_scenario_writes_results_metrics_and_plot(fmu_dir, tmp_path):
+    out = run_scenario("nguyen2012_cornering", duration=1.0, out_dir=tmp_path, fmu_dir=fmu_dir)
+    assert (tmp_path / "results.csv").stat().st_size > 0 and (tmp_path / "sideslip.png").stat().st_size > 10_000
+    m = json.loads((tmp_path / "metrics.json").read_text())
+    assert m["scenario"]["name"] == "nguyen2012_cornering" and m["real_time_factor"] > 0
+    assert out.metrics["summary"]["final_speed"] == pytest.approx(20 / 3.6, abs=0.05)
+
+
+def test_cli_smoke_run(fmu_dir, tmp_path):
+    cmd = [sys.executable, "-m", "sideslip", "--fmu-dir", str(fmu_dir), "run", "--scenario", "pi2011_medium",
+           "--duration", "1.0", "--out", str(tmp_path / "o"), "--set", "road_mu=0.4"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "scenario pi2011_medium" in proc.stdout and "x real time" in proc.stdout
+    m = json.loads((tmp_path / "o" / "metrics.json").read_text())
+    assert m["scenario"]["road_mu"] == "0.4"
+    proc = subprocess.run([sys.executable, "-m", "sideslip", "list"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and "park2018_case5" in proc.stdout and "VehiclePlant" in proc.stdout
+    proc = subprocess.run([sys.executable, "-m", "sideslip", "--fmu-dir", str(fmu_dir), "run", "--scenario",
+                           "nope"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "one of" in proc.stderr
+
+
+def test_cli_bench_json(fmu_dir):
+    proc = subprocess.run([sys.executable, "-m", "sideslip", "--fmu-dir", str(fmu_dir), "bench", "--json",
+                           "--duration", "0.3"], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    b = json.loads(proc.stdout)
+    assert set(b["fmus"]) >= {"VehiclePlant", "VehicleSensors", "ManeuverDriver"}
+    assert b["closed_loop"]["real_time_factor"] > 0
