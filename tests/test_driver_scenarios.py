@@ -195,3 +195,17 @@ def test_path_follower_steers_smoothly_on_a_circle():
     steady = slice(18000, 21000)
     assert np.ptp(res["delta_f"][steady]) < 2e-4
     assert np.ptp(res["ay"][steady]) < 0.03
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS) + ["fmvss126_suv_mu05_a6.5_right"])
+def test_every_scenario_starts_cleanly(name):
+    """Half a second of every scenario through the library loop: finite outputs, the initial
+    speed as configured, sensors producing data."""
+    from sideslip.plant.sensors import SensorSuite
+
+    sc = get_scenario(name)
+    res = run_loop(VehiclePlant(build(PlantConfig, sc.plant_params())), Driver(build(DriverConfig, sc.driver_params())),
+                   0.5, sensors=SensorSuite(build(SensorConfig, sc.sensor_params())))
+    assert all(np.all(np.isfinite(v)) for v in res.values())
+    assert res["vx"][0] == pytest.approx(sc.initial_speed)
+    assert res["mu"][-1] == pytest.approx(TimeTable(sc.road_mu)(0.5))

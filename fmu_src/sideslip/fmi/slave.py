@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import copy
 import ctypes
+import functools
 import math
 import pickle
 import traceback
@@ -66,6 +67,22 @@ def keep_module_dict_alive(namespace: dict) -> None:
     normal import adds one extra reference, which only keeps an immortal module alive).
     """
     ctypes.pythonapi.Py_IncRef(ctypes.py_object(namespace))
+
+
+def _host_call(function: str, default=None):
+    """Decorate an fmi2Get/Set handler: an exception is logged at error status (never raised
+    into pythonfmu, which would return fmi2Fatal and free the instance); getters then return
+    ``default(len(vrs))``."""
+    def wrap(method):
+        @functools.wraps(method)
+        def guarded(self, vrs, *args):
+            try:
+                return method(self, vrs, *args)
+            except Exception as exc:  # noqa: BLE001 - wrong value reference or type from the host
+                self._log(f"{self.modelName}: {function} failed: {exc!r}", _ERROR)
+                return default(len(vrs)) if default else None
+        return guarded
+    return wrap
 
 
 def _fmt(value: float) -> str:
@@ -347,35 +364,23 @@ class SideslipSlave(Fmi2Slave):
         pass
 
     # ------------------------------------------------------------------ variable access (Python path)
+    @_host_call("fmi2GetReal", lambda n: [0.0] * n)
     def get_real(self, vrs):
-        try:
-            ports, vals, n = self._ports, self._vals, self._n_ports
-            return [ports[vr - 1] if 1 <= vr <= n else float(vals[vr]) for vr in vrs]
-        except Exception as exc:  # noqa: BLE001 - wrong vr or type from the host
-            self._log(f"{self.modelName}: fmi2GetReal failed: {exc!r}", _ERROR)
-            return [0.0] * len(vrs)
+        ports, vals, n = self._ports, self._vals, self._n_ports
+        return [ports[vr - 1] if 1 <= vr <= n else float(vals[vr]) for vr in vrs]
 
+    @_host_call("fmi2GetInteger", lambda n: [0] * n)
     def get_integer(self, vrs):
-        try:
-            return [int(self._vals[vr]) for vr in vrs]
-        except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName}: fmi2GetInteger failed: {exc!r}", _ERROR)
-            return [0] * len(vrs)
+        return [int(self._vals[vr]) for vr in vrs]
 
+    @_host_call("fmi2GetBoolean", lambda n: [False] * n)
     def get_boolean(self, vrs):
-        try:
-            ports, vals, n = self._ports, self._vals, self._n_ports
-            return [ports[vr - 1] != 0.0 if 1 <= vr <= n else bool(vals[vr]) for vr in vrs]
-        except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName}: fmi2GetBoolean failed: {exc!r}", _ERROR)
-            return [False] * len(vrs)
+        ports, vals, n = self._ports, self._vals, self._n_ports
+        return [ports[vr - 1] != 0.0 if 1 <= vr <= n else bool(vals[vr]) for vr in vrs]
 
+    @_host_call("fmi2GetString", lambda n: [""] * n)
     def get_string(self, vrs):
-        try:
-            return [self._port_layout() if vr == 0 else str(self._vals[vr]) for vr in vrs]
-        except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName}: fmi2GetString failed: {exc!r}", _ERROR)
-            return [""] * len(vrs)
+        return [self._port_layout() if vr == 0 else str(self._vals[vr]) for vr in vrs]
 
     def _check_settable(self, vr: int, kind: str) -> bool:
         if not 0 <= vr < len(self._vals) or self._kind[vr] != kind:
@@ -393,43 +398,35 @@ class SideslipSlave(Fmi2Slave):
             return False
         return True
 
+    @_host_call("fmi2SetReal")
     def set_real(self, vrs, values):
-        try:
-            n_in = self._n_in
-            for vr, x in zip(vrs, values):
-                if 1 <= vr <= n_in and self._port_kind[vr - 1] == "R":
-                    self._ports[vr - 1] = x            # checked at the next doStep
-                elif self._check_settable(vr, "Real"):
-                    self._vals[vr] = float(x)
-        except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName}: fmi2SetReal failed: {exc!r}", _ERROR)
+        n_in = self._n_in
+        for vr, x in zip(vrs, values):
+            if 1 <= vr <= n_in and self._port_kind[vr - 1] == "R":
+                self._ports[vr - 1] = x            # checked at the next doStep
+            elif self._check_settable(vr, "Real"):
+                self._vals[vr] = float(x)
 
+    @_host_call("fmi2SetInteger")
     def set_integer(self, vrs, values):
-        try:
-            for vr, x in zip(vrs, values):
-                if self._check_settable(vr, "Integer"):
-                    self._vals[vr] = int(x)
-        except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName}: fmi2SetInteger failed: {exc!r}", _ERROR)
+        for vr, x in zip(vrs, values):
+            if self._check_settable(vr, "Integer"):
+                self._vals[vr] = int(x)
 
+    @_host_call("fmi2SetBoolean")
     def set_boolean(self, vrs, values):
-        try:
-            n_in = self._n_in
-            for vr, x in zip(vrs, values):
-                if 1 <= vr <= n_in and self._port_kind[vr - 1] == "B":
-                    self._ports[vr - 1] = 1.0 if x else 0.0
-                elif self._check_settable(vr, "Boolean"):
-                    self._vals[vr] = bool(x)
-        except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName}: fmi2SetBoolean failed: {exc!r}", _ERROR)
+        n_in = self._n_in
+        for vr, x in zip(vrs, values):
+            if 1 <= vr <= n_in and self._port_kind[vr - 1] == "B":
+                self._ports[vr - 1] = 1.0 if x else 0.0
+            elif self._check_settable(vr, "Boolean"):
+                self._vals[vr] = bool(x)
 
+    @_host_call("fmi2SetString")
     def set_string(self, vrs, values):
-        try:
-            for vr, x in zip(vrs, values):
-                if self._check_settable(vr, "String"):
-                    self._vals[vr] = str(x)
-        except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName}: fmi2SetString failed: {exc!r}", _ERROR)
+        for vr, x in zip(vrs, values):
+            if self._check_settable(vr, "String"):
+                self._vals[vr] = str(x)
 
     # ------------------------------------------------------------------ FMU state
     _STATE_FIELDS = ("_vals", "_last_in", "_warned", "model", "_failed", "_initialized", "_t0")

@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model import Model
 from ..params import ParameterError, check, param
 from ..signals import DRIVER_OUTPUTS
 from ..vehicles import GRAVITY, VehicleParams, load_vehicle
-from .clock import StepClock
 from .maneuvers import TimeTable, parse_maneuver
 
 __all__ = ["DriverConfig", "Driver", "DRIVER_INPUTS"]
@@ -64,7 +64,7 @@ class DriverConfig:
             raise ParameterError("road_bank", self.road_bank, "bank angles in [-0.5, 0.5] rad")
 
 
-class Driver:
+class Driver(Model):
     """Closed-loop driver executing one maneuver.
 
     Parameters
@@ -123,7 +123,7 @@ class Driver:
 
     def reset(self) -> None:
         """Initial state at t = 0 with outputs for t = 0."""
-        self._clock = StepClock()
+        self._reset_clock()
         self._idx = 0
         self._integ = 0.0
         self._delta_hold = None
@@ -156,17 +156,9 @@ class Driver:
         return math.atan(2.0 * v.l * math.sin(alpha) / math.hypot(lx, ly))
 
     def step(self, h: float, vx: float, X: float, Y: float, yaw: float) -> None:
-        """Advance by ``h`` [s]; arguments are the latest plant truth (``vx``, position, yaw).
-
-        Raises
-        ------
-        ValueError
-            If ``h <= 0``.
-        """
-        if not h > 0.0:
-            raise ValueError(f"step size must be > 0, got {h}")
+        """Advance by ``h`` [s] (> 0); arguments are the latest plant truth (``vx``, position, yaw)."""
+        t = self._tick(h)
         cfg, v, plan = self.config, self.vehicle, self.plan
-        t = self._clock.tick(h)
 
         # ---- steering
         if plan.steer_sw is not None and t >= plan.t_open:
@@ -201,16 +193,3 @@ class Driver:
         force = min(max(force, f_lo), f_hi)
         torque = force * v.R_w if t < plan.coast_from else 0.0
         self._out = self._pack(t, delta, max(torque, 0.0), max(-torque, 0.0), v_ref)
-
-    @property
-    def t(self) -> float:
-        """Time of the last step [s]."""
-        return self._clock.t
-
-    def outputs(self) -> tuple:
-        """Outputs ordered as :data:`sideslip.signals.DRIVER_OUTPUTS`."""
-        return self._out
-
-    def output_dict(self) -> dict[str, float]:
-        """Outputs as ``{name: value}``."""
-        return dict(zip(DRIVER_OUTPUTS, self._out))

@@ -29,9 +29,9 @@ from enum import IntEnum
 
 import numpy as np
 
+from ..model import Model
 from ..params import ParameterError, check, param
 from ..signals import SENSOR_OUTPUTS
-from .clock import StepClock
 
 __all__ = ["SensorConfig", "SensorSuite", "SENSOR_INPUTS", "SO", "parse_windows"]
 
@@ -134,7 +134,7 @@ class _Sampler:
         return False
 
 
-class SensorSuite:
+class SensorSuite(Model):
     """All sensors of the vehicle; one :meth:`step` per communication step.
 
     Parameters
@@ -177,7 +177,7 @@ class SensorSuite:
         self._rng = np.random.default_rng([cfg.seed, 1])   # noise stream, independent of the episodes
         self._noise: list = []
         self._noise_i = 0
-        self._clock = StepClock()
+        self._reset_clock()
         self._imu = _Sampler(cfg.imu_rate)
         self._wheel = _Sampler(cfg.wheel_rate)
         self._steer = _Sampler(cfg.steer_rate)
@@ -221,17 +221,9 @@ class SensorSuite:
 
     def step(self, h: float, ax, ay, yaw_rate, roll_rate, delta_f, omega_fl, omega_fr, omega_rl, omega_rr,
              vx, vy, yaw, roll) -> None:
-        """Advance by ``h`` [s]; the arguments are the plant truth at the end of the step.
-
-        Raises
-        ------
-        ValueError
-            If ``h <= 0``.
-        """
-        if not h > 0.0:
-            raise ValueError(f"step size must be > 0, got {h}")
+        """Advance by ``h`` [s] (> 0); the arguments are the plant truth at the end of the step."""
+        t = self._tick(h)
         cfg, out, g = self.config, self._out, self._gauss
-        t = self._clock.tick(h)
         c, s = math.cos(yaw), math.sin(yaw)
         hist = self._hist
         hist.append((t, vx * c - vy * s, vx * s + vy * c))
@@ -293,16 +285,3 @@ class SensorSuite:
         if i < len(eps) and eps[i][0] <= t:
             return eps[i]
         return None
-
-    @property
-    def t(self) -> float:
-        """Time of the last step [s]."""
-        return self._clock.t
-
-    def outputs(self) -> tuple:
-        """Outputs ordered as :data:`sideslip.signals.SENSOR_OUTPUTS` (Booleans as 0.0/1.0)."""
-        return tuple(self._out)
-
-    def output_dict(self) -> dict[str, float]:
-        """Outputs as ``{name: value}``."""
-        return dict(zip(SENSOR_OUTPUTS, self._out))

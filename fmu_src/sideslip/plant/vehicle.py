@@ -57,10 +57,10 @@ from math import cos, sin, sqrt, atan2
 
 import numpy as np
 
+from ..model import Model
 from ..params import check, param
 from ..signals import PLANT_INPUTS, PLANT_OUTPUTS
 from ..vehicles import GRAVITY, VehicleParams, load_vehicle
-from .clock import StepClock
 from .tires import dugoff
 
 __all__ = ["St", "PlantConfig", "VehiclePlant"]
@@ -117,7 +117,7 @@ def _wrap(angle: float) -> float:
     return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
-class VehiclePlant:
+class VehiclePlant(Model):
     """The 8-DOF vehicle with Dugoff tires, load transfer, in-wheel motors and RK4.
 
     Parameters
@@ -180,7 +180,7 @@ class VehiclePlant:
         x[St.W_FL] = x[St.W_FR] = x[St.W_RL] = x[St.W_RR] = w0
         x[St.X], x[St.Y], x[St.PSI] = cfg.X0, cfg.Y0, cfg.yaw0
         self.x = x
-        self._clock = StepClock()
+        self._reset_clock()
         self.dT_motor = 0.0          # actual motor torque difference [N m]
         self.n_substeps = 1
         self._u = (0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
@@ -322,8 +322,7 @@ class VehiclePlant:
         """
         if not math.isfinite(delta_f + T_drive + T_brake + Mz_dyc + mu + bank_angle + F_wind_y + M_wind_z):
             raise ValueError("plant inputs must be finite")
-        if not h > 0.0:
-            raise ValueError(f"step size must be > 0, got {h}")
+        self._tick(h)
         v = self.vehicle
         self._u = (delta_f, T_drive, T_brake, Mz_dyc, mu, bank_angle, F_wind_y, M_wind_z)
         held = self._held(delta_f, T_drive, T_brake, mu, bank_angle, F_wind_y, M_wind_z)
@@ -354,7 +353,6 @@ class VehiclePlant:
         x[St.PSI] = _wrap(x[St.PSI])
         self.x = x
         self.dT_motor = dT
-        self._clock.tick(h)
         self._out = self._outputs_at(x, held)
 
     # ------------------------------------------------------------------ outputs
@@ -377,16 +375,3 @@ class VehiclePlant:
         return (vx, vy, x[St.R], atan2(vy, vx), x[St.PSI], bank + phi, x[St.P], ax_spec, ay_body,
                 x[St.X], x[St.Y], x[St.W_FL], x[St.W_FR], x[St.W_RL], x[St.W_RR], fy_f, fy_r, fz1, fz2, fz3, fz4,
                 0.5 * (a1 + a2), 0.5 * (a3 + a4), self._motor_arm * self.dT_motor)
-
-    @property
-    def t(self) -> float:
-        """Time of the last step [s]."""
-        return self._clock.t
-
-    def outputs(self) -> tuple:
-        """Outputs at the current time, ordered as :data:`sideslip.signals.PLANT_OUTPUTS`."""
-        return self._out
-
-    def output_dict(self) -> dict[str, float]:
-        """Outputs as ``{name: value}``."""
-        return dict(zip(PLANT_OUTPUTS, self._out))
