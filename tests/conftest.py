@@ -108,5 +108,21 @@ def harness(fmu_dir):
         h.close()
 
 
+def assert_save_restore_repeats(fmu: FmuHarness, drive) -> None:
+    """Save the FMU state, run ``drive()``, restore it (directly and through serialisation) and
+    assert that ``drive()`` returns the same outputs again."""
+    state = fmu.fmu.getFMUstate()
+    blob = fmu.fmu.serializeFMUstate(state)
+    t = fmu.t
+    first = drive()
+    fmu.fmu.setFMUstate(state)
+    fmu.t = t
+    assert drive() == first
+    fmu.fmu.setFMUstate(fmu.fmu.deSerializeFMUstate(blob))
+    fmu.t = t
+    assert drive() == first
+    fmu.fmu.freeFMUstate(state)
+
+
 def finite(values) -> bool:
     return all(math.isfinite(v) for v in values if isinstance(v, float))

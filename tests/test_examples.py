@@ -26,9 +26,13 @@ def test_fmpy_closed_loop():
 
 
 def test_library_only():
-    res = load("library_only").run(show_plot=False, duration=12.0)
+    res = load("library_only").run(show_plot=False, duration=20.0)
     # steady turn, body-fixed accelerometer: centripetal part plus gravity through the body roll
     phi = res["roll"][-1]
     expected = np.cos(phi) * res["vx"][-1] * res["yaw_rate"][-1] + np.sin(phi) * 9.81
     assert res["ay"][-1] == pytest.approx(expected, rel=0.01)
     assert res["vx"][-1] == pytest.approx(9.0, abs=0.05)
+    # the estimator stepped next to the plant: offset found, sideslip within 0.1 deg on the circle
+    assert -res["park.offset_ay"][-1] == pytest.approx(0.1, abs=0.02)
+    on = res["time"] > 6.0
+    assert np.max(np.abs(res["park.beta_hat"][on] - res["beta"][on])) < np.radians(0.1)

@@ -17,7 +17,7 @@ from sideslip.plant.sensors import SensorConfig, SensorSuite
 from sideslip.plant.vehicle import PlantConfig, VehiclePlant
 from sideslip.signals import SIGNALS
 
-from conftest import FmuHarness
+from conftest import FmuHarness, assert_save_restore_repeats
 
 FMUS = sorted(fmu_entries())
 PLANT_FMUS = ["VehiclePlant", "VehicleSensors", "ManeuverDriver"]
@@ -145,18 +145,7 @@ def test_save_restore_and_serialisation_continue_identically(harness, name, para
         return out
 
     drive(700, 0)
-    state = fmu.fmu.getFMUstate()
-    blob = fmu.fmu.serializeFMUstate(state)
-    t = fmu.t
-    first = drive(500, 700)
-    fmu.fmu.setFMUstate(state)
-    fmu.t = t
-    assert drive(500, 700) == first
-    restored = fmu.fmu.deSerializeFMUstate(blob)
-    fmu.fmu.setFMUstate(restored)
-    fmu.t = t
-    assert drive(500, 700) == first
-    fmu.fmu.freeFMUstate(state)
+    assert_save_restore_repeats(fmu, lambda: drive(500, 700))
 
 
 def test_reset_gives_a_fresh_instance(harness):
@@ -304,3 +293,21 @@ def test_build_without_a_compiler_keeps_the_plain_binary(tmp_path, monkeypatch):
         assert fmu.outputs() == list(lib.outputs())
     finally:
         fmu.close()
+
+
+def test_parallel_builds_of_the_same_fmu_build_it_once_and_never_expose_a_partial_file(tmp_path):
+    """Tuning studies start workers that all ensure the same FMUs: the build lock serialises them."""
+    import subprocess
+    import sys
+    import zipfile
+
+    code = ("import sys; from sideslip.fmi.build import build_fmus; "
+            "build_fmus(['OpenLoopKinematic'], sys.argv[1], log=lambda m: print(m, flush=True))")
+    procs = [subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], stdout=subprocess.PIPE, text=True)
+             for _ in range(2)]
+    logs = [p.communicate(timeout=120)[0] for p in procs]
+    assert all(p.returncode == 0 for p in procs)
+    assert sum("OpenLoopKinematic: built" in log for log in logs) == 1
+    assert sum("OpenLoopKinematic: up to date" in log for log in logs) == 1
+    assert zipfile.ZipFile(tmp_path / "OpenLoopKinematic.fmu").testzip() is None
+    assert not list(tmp_path.glob("*.part"))

@@ -114,6 +114,20 @@ def test_low_speed_samples_are_not_evaluated():
     assert m["coverage"] == pytest.approx(0.5) and m["beta_hat"]["max"] == pytest.approx(math.degrees(0.01))
 
 
+def test_samples_the_estimator_calls_invalid_are_not_evaluated():
+    data = _synthetic(0.01)
+    data["est.beta_hat"][:100] = 1.0              # garbage before the estimator is valid (t <= 1 s)
+    m = estimate_metrics(data, "est")
+    assert m["beta_hat"]["max"] == pytest.approx(math.degrees(0.01)) and m["samples"] == 899
+
+
+def test_sub_estimates_are_scored_like_beta_hat():
+    data = _synthetic(0.01)
+    data["est.beta_hat_bicycle"] = data["plant.beta"] - 0.02
+    m = estimate_metrics(data, "est")
+    assert m["beta_hat_bicycle"]["rms"] == pytest.approx(math.degrees(0.02)) and "beta_hat_std" not in m
+
+
 # ---------------------------------------------------------------- runner and CLI
 def test_run_scenario_writes_results_metrics_and_plot(fmu_dir, tmp_path):
     out = run_scenario("nguyen2012_cornering", duration=1.0, out_dir=tmp_path, fmu_dir=fmu_dir)
@@ -145,3 +159,18 @@ def test_cli_bench_json(fmu_dir):
     b = json.loads(proc.stdout)
     assert set(b["fmus"]) >= {"VehiclePlant", "VehicleSensors", "ManeuverDriver"}
     assert b["closed_loop"]["real_time_factor"] > 0
+
+
+@pytest.mark.parametrize("text,expected", [("false", False), ("0", False), ("off", False), ("true", True),
+                                           ("yes", True)])
+def test_boolean_parameters_given_as_text_mean_what_they_say(fmu_dir, text, expected):
+    with CoSimulation([Component("Kim2016SteeringEKF", "kim", {"fault_latch": text})], fmu_dir=fmu_dir) as sim:
+        inst = sim._by_name["kim"]
+        var = inst.vars["fault_latch"]
+        assert inst.slave.getBoolean([var.valueReference]) == [expected]
+
+
+def test_boolean_parameter_with_an_unknown_word_is_refused(fmu_dir):
+    with pytest.raises(MasterError, match="fault_latch"):
+        with CoSimulation([Component("Kim2016SteeringEKF", "kim", {"fault_latch": "maybe"})], fmu_dir=fmu_dir):
+            pass

@@ -15,7 +15,7 @@ from typing import Any, Iterable, Mapping
 
 from .units import QUANTITIES
 
-__all__ = ["ParamInfo", "ParameterError", "param", "check", "declared_fields", "build",
+__all__ = ["ParamInfo", "ParameterError", "param", "check", "declared_fields", "build", "parse_bool",
            "parse_assignments", "describe_range"]
 
 
@@ -161,18 +161,29 @@ def check(obj, prefix: str = "") -> None:
         _check_value(prefix + f.name, getattr(obj, f.name), info, type(f.default))
 
 
+def parse_bool(name: str, raw: Any) -> bool:
+    """A Boolean from a bool, number or string (``true/false``, ``1/0``, ``yes/no``, ``on/off``).
+
+    Raises
+    ------
+    ParameterError
+        For any other string.
+    """
+    if isinstance(raw, str):
+        low = raw.strip().lower()
+        if low in ("1", "true", "yes", "on"):
+            return True
+        if low in ("0", "false", "no", "off"):
+            return False
+        raise ParameterError(name, raw, "true or false")
+    return bool(raw)
+
+
 def _coerce(name: str, raw: Any, typ: type, info: ParamInfo):
     if typ is str:
         return str(raw)
     if typ is bool:
-        if isinstance(raw, str):
-            low = raw.strip().lower()
-            if low in ("1", "true", "yes", "on"):
-                return True
-            if low in ("0", "false", "no", "off"):
-                return False
-            raise ParameterError(name, raw, "true or false")
-        return bool(raw)
+        return parse_bool(name, raw)
     try:
         val = float(raw)
     except (TypeError, ValueError):

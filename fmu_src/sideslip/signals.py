@@ -141,6 +141,23 @@ _ENTRIES = [
     _real("vy_hat", "Velocity", "Estimated lateral velocity", -100.0, 100.0),
     _real("yaw_rate_hat", "AngularVelocity", "Estimated yaw rate", -10.0, 10.0),
     _bool("valid", "True when the estimate is usable (initialised, inputs finite, vx above threshold)"),
+    # --- estimator extras ------------------------------------------------------------
+    _real("yaw_hat", "Angle", "Estimated yaw (heading) angle, counter-clockwise from east", -_PI, _PI),
+    _real("Cf_hat", "CorneringStiffness", "Estimated front-axle cornering stiffness", 0.0, 1.0e7),
+    _real("Cr_hat", "CorneringStiffness", "Estimated rear-axle cornering stiffness", 0.0, 1.0e7),
+    _real("weight_K", "Dimensionless", "Weighting factor K of the integrated observer (0: bicycle model, "
+          "1: kinematic model)", 0.0, 1.0),
+    _real("offset_ax", "Acceleration", "Estimated correction added to ax_m (negative of its offset)", -10.0, 10.0),
+    _real("offset_ay", "Acceleration", "Estimated correction added to ay_m (negative of its offset)", -10.0, 10.0),
+    _real("offset_yaw_rate", "AngularVelocity", "Estimated correction added to yaw_rate_m (negative of its offset)",
+          -1.0, 1.0),
+    _real("offset_radius", "Length", "Estimated correction of the nominal rolling radius", -0.2, 0.2),
+    _real("beta_hat_bicycle", "Angle", "Sideslip of the bicycle-model sub-filter", -_PI, _PI),
+    _real("beta_hat_kinematic", "Angle", "Sideslip of the kinematic-model sub-filter", -_PI, _PI),
+    _real("beta_hat_openloop", "Angle", "Sideslip of the open-loop (no GPS) kinematic integration", -_PI, _PI),
+    _real("delta_hat", "Angle", "Estimated front road-wheel steering angle", -1.0, 1.0),
+    _real("delta_residual", "Angle", "Low-pass filtered steering residual delta_m - delta_hat", -2.0, 2.0),
+    _bool("delta_fault", "True while the steering-sensor residual test detects a fault"),
     # --- controller -----------------------------------------------------------------------
     _real("Mz_cmd", "Torque", "Direct-yaw-moment command for the in-wheel motors", -2.0e4, 2.0e4),
     _real("beta_ref", "Angle", "Reference sideslip angle of the reference model", -_PI, _PI),

@@ -1,9 +1,10 @@
-"""Command line: ``python -m sideslip {list,run,demo,bench,build,fmu-tables}``.
+"""Command line: ``python -m sideslip {list,run,demo,bench,paper,build,fmu-tables}``.
 
 ``run`` writes ``DIR/results.csv``, ``DIR/metrics.json`` and ``DIR/sideslip.png`` and prints
 a metrics table; ``demo`` is ``run`` on a default scenario with every registered estimator;
 ``bench`` prints microseconds per communication step per FMU and the closed-loop real-time
-factor.  FMUs are built on first use (``build/fmus``).
+factor; ``paper`` reproduces a paper's result tables with the FMUs.  FMUs are built on first
+use (``build/fmus``).
 """
 from __future__ import annotations
 
@@ -101,6 +102,27 @@ def _cmd_bench(args) -> int:
     return 0
 
 
+def _cmd_paper(args) -> int:
+    from . import paper_tables as pt
+
+    params = _kv(args.param, "--param")
+    out = {}
+    if args.name == "park2018":
+        out["accuracy"] = acc = pt.park2018_accuracy(args.fmu_dir, args.workers, params=params or None)
+        out["gps_outage"] = outage = pt.park2018_gps_outage(args.fmu_dir, workers=args.workers)
+        text = ["Park 2018 Table 3: sideslip error RMS / max [deg]", "", pt.format_park2018_accuracy(acc), "",
+                pt.format_park2018_gps_outage(outage)]
+    else:
+        if params:
+            raise SystemExit("--param applies to park2018 only")
+        out["accuracy"] = acc = pt.kim2016_accuracy(args.fmu_dir, args.workers, extra_scenarios=args.extra or ())
+        out["fault_detection"] = faults = pt.kim2016_fault_detection(args.fmu_dir, args.workers)
+        text = ["Kim 2016 Table 3: RMSE", "", pt.format_kim2016_accuracy(acc), "",
+                "Steering-sensor faults", "", pt.format_kim2016_fault_detection(faults)]
+    print(json.dumps(out, indent=2, default=str) if args.json else "\n".join(text))
+    return 0
+
+
 def _cmd_fmu_tables(args) -> int:
     from ..fmi.docs import fmu_tables_markdown
 
@@ -144,13 +166,21 @@ def main(argv=None) -> int:
     bench = sub.add_parser("bench", help="microseconds per step per FMU and closed-loop real-time factor")
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--duration", type=float, default=5.0, help="simulated seconds per measurement")
+    paper = sub.add_parser("paper", help="reproduce a paper's result tables with the FMUs in closed loop")
+    paper.add_argument("name", choices=("park2018", "kim2016"))
+    paper.add_argument("--workers", type=int, default=2, help="parallel runs (default %(default)s)")
+    paper.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE",
+                       help="estimator parameter override for the accuracy table (ablations)")
+    paper.add_argument("--extra", action="append", metavar="SCENARIO",
+                       help="kim2016: more fault-free scenarios for the false-alarm check")
+    paper.add_argument("--json", action="store_true")
     sub.add_parser("fmu-tables", help="markdown I/O tables of the FMUs (as in the README)")
     build = sub.add_parser("build", help="build the FMUs")
     build.add_argument("names", nargs="*")
     build.add_argument("--force", action="store_true")
     args = p.parse_args(argv)
     try:
-        return {"list": _cmd_list, "run": _cmd_run, "demo": _cmd_demo, "bench": _cmd_bench,
+        return {"list": _cmd_list, "run": _cmd_run, "demo": _cmd_demo, "bench": _cmd_bench, "paper": _cmd_paper,
                 "build": _cmd_build, "fmu-tables": _cmd_fmu_tables}[args.cmd](args)
     except (KeyError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -32,6 +32,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
 from ..fmi.build import DEFAULT_OUT, ensure_fmus
+from ..params import parse_bool
 
 __all__ = ["Component", "CoSimulation", "Results", "MasterError", "INPUT_ALIASES"]
 
@@ -147,7 +148,7 @@ class _Instance:
                 elif var.type == "Integer":
                     self.slave.setInteger(vr, [int(value)])
                 elif var.type == "Boolean":
-                    self.slave.setBoolean(vr, [bool(value)])
+                    self.slave.setBoolean(vr, [parse_bool(key, value)])     # "false" is False
                 else:
                     self.slave.setString(vr, [str(value)])
             except Exception as exc:
@@ -167,6 +168,10 @@ class Results:
 
     @property
     def names(self) -> tuple:
+        return self.data.dtype.names
+
+    def keys(self) -> tuple:
+        """Field names (so that a Results reads like a mapping of arrays)."""
         return self.data.dtype.names
 
     def to_csv(self, path: str | Path) -> None:

@@ -5,9 +5,13 @@
   (deg/s), plus ``delta_hat`` (deg) and ``yaw_hat`` (deg) where an estimator has them.
 * The normalised error of Pi 2011 eq. 48, ``100 |z - z_true| / max |z_true|`` [%],
   reported as its maximum and mean.
+* Sub-estimates an estimator exposes as ``beta_hat_<name>`` (Park 2018's bicycle,
+  kinematic and open-loop sub-filters) are scored like ``beta_hat``.
 * Sideslip is undefined at standstill, so samples with a plant speed below
-  ``min_speed`` (default 2 m/s) are excluded; the share of the run evaluated is reported
-  (``coverage``) together with the share in which the estimator said ``valid``.
+  ``min_speed`` (default 2 m/s) are excluded, and so are the samples in which the estimator
+  says it is not ``valid`` (before its first sample, below its own minimum speed); the share
+  of the run above ``min_speed`` (``coverage``) and the share of that in which the estimator
+  was valid (``valid``) are reported with the errors.
 Angle errors are wrapped to (-pi, pi].
 """
 from __future__ import annotations
@@ -67,13 +71,20 @@ def estimate_metrics(results, estimator: str, plant: str = "plant", driver: str 
         "norm_max_pct", "norm_mean_pct"}}``.
     """
     mask = _mask(results, plant, t_start, min_speed)
-    names = set(results.dtype.names if hasattr(results, "dtype") else results.keys())
-    out = {"coverage": float(mask.mean()), "samples": int(mask.sum())}
+    names = set(results.dtype.names if isinstance(results, np.ndarray) else results.keys())
+    out = {"coverage": float(mask.mean())}
     valid = f"{estimator}.valid"
     if valid in names:
-        out["valid"] = float(np.asarray(results[valid])[mask].mean()) if mask.any() else 0.0
+        is_valid = np.asarray(results[valid]) > 0.5
+        out["valid"] = float(is_valid[mask].mean()) if mask.any() else 0.0
+        mask = mask & is_valid
+    out["samples"] = int(mask.sum())
     pairs = dict(_PAIRS)
     pairs["delta_hat"] = (None, _DEG, "deg")
+    prefix = f"{estimator}.beta_hat_"
+    for field in sorted(names):
+        if field.startswith(prefix) and field != f"{estimator}.beta_hat_std":
+            pairs[field[len(estimator) + 1:]] = _PAIRS["beta_hat"]
     for est, (truth, scale, unit) in pairs.items():
         field = f"{estimator}.{est}"
         if field not in names:
@@ -83,7 +94,7 @@ def estimate_metrics(results, estimator: str, plant: str = "plant", driver: str 
             continue
         z_true = np.asarray(ref, dtype=float)[mask]
         err = np.asarray(results[field], dtype=float)[mask] - z_true
-        if est in _ANGLES:
+        if est in _ANGLES or est.startswith("beta_hat"):
             err = wrap(err)
         peak = float(np.max(np.abs(z_true)))
         norm = 100.0 * np.abs(err) / peak if peak > 0 else np.full_like(err, np.nan)

@@ -19,19 +19,24 @@ from .master import Component, CoSimulation, Results
 from .metrics import estimate_metrics, format_table, scenario_summary
 from .scenarios import Scenario, get_scenario
 
-__all__ = ["scenario_components", "run_scenario", "RunOutput"]
+__all__ = ["scenario_components", "scenario_params", "run_scenario", "run_library", "RunOutput"]
 
 PLANT, SENSORS, DRIVER = "VehiclePlant", "VehicleSensors", "ManeuverDriver"
 
 
-def _auto_params(fmu: str, scenario: Scenario) -> dict:
-    """Parameters an estimator/controller FMU takes from the scenario (vehicle and hints)."""
-    names = {f.name for f, _ in declared_fields(fmu_entry(fmu).slave_class.config_class)}
+def scenario_params(config_class, scenario: Scenario) -> dict:
+    """Parameters a model with ``config_class`` takes from the scenario: its vehicle and hints."""
+    names = {f.name for f, _ in declared_fields(config_class)}
     params = {"vehicle": scenario.vehicle} if "vehicle" in names else {}
     if "vehicle_overrides" in names and scenario.vehicle_overrides:
         params["vehicle_overrides"] = scenario.vehicle_overrides
     params.update({k: v for k, v in scenario.hints.items() if k in names})
     return params
+
+
+def _auto_params(fmu: str, scenario: Scenario) -> dict:
+    """Parameters an estimator/controller FMU takes from the scenario (vehicle and hints)."""
+    return scenario_params(fmu_entry(fmu).slave_class.config_class, scenario)
 
 
 def scenario_components(scenario: Scenario, estimators=(), controller: str | None = None,
@@ -143,3 +148,52 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
         (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
         plot_sideslip(res, list(estimators), out / "sideslip.png", title=f"{sc.name}: {sc.description}")
     return RunOutput(res, metrics)
+
+
+def run_library(scenario: str | Scenario, estimators=(), duration: float | None = None, step: float = 1e-3,
+                overrides: dict | None = None, params: dict | None = None) -> dict:
+    """The closed loop of :func:`run_scenario` with the library classes instead of FMUs (no FMI).
+
+    Parameters
+    ----------
+    estimators : iterable of str or Estimator, or dict of name -> model
+        Estimator class names of :data:`sideslip.estimators.ESTIMATORS` (configured from the
+        scenario like the FMUs), ready instances (named by their class), or ready models by
+        instance name.
+    params : dict, optional
+        ``{"<estimator>.<parameter>": value}`` overrides.
+
+    Returns
+    -------
+    dict
+        Arrays by ``<instance>.<signal>`` (instances ``driver``, ``plant``, ``sensors`` and
+        the estimators), plus ``time``: the layout of :class:`Results`.
+    """
+    from ..estimators import ESTIMATORS
+    from ..params import build
+    from ..plant.driver import Driver, DriverConfig
+    from ..plant.loop import run_loop
+    from ..plant.sensors import SensorConfig, SensorSuite
+    from ..plant.vehicle import PlantConfig, VehiclePlant
+
+    sc = get_scenario(scenario, **(overrides or {})) if isinstance(scenario, str) else scenario
+    observers = dict(estimators) if isinstance(estimators, dict) else {}
+    for e in () if isinstance(estimators, dict) else estimators:
+        if isinstance(e, str):
+            if e not in ESTIMATORS:
+                raise KeyError(f"unknown estimator {e!r}; estimators: {', '.join(sorted(ESTIMATORS))}")
+            cls = ESTIMATORS[e]
+            values = scenario_params(cls.config_class, sc)
+            values.update({k.split(".", 1)[1]: v for k, v in (params or {}).items() if k.startswith(e + ".")})
+            e = cls(build(cls.config_class, values))
+        observers[type(e).__name__] = e
+    driver = Driver(build(DriverConfig, sc.driver_params()))
+    plant = VehiclePlant(build(PlantConfig, sc.plant_params()))
+    sensors = SensorSuite(build(SensorConfig, sc.sensor_params()))
+    raw = run_loop(plant, driver, duration if duration is not None else sc.duration, step, sensors, observers)
+    out = {"time": raw.pop("time")}
+    owner = {**{n: "driver" for n in driver.output_names}, **{n: "plant" for n in plant.output_names},
+             **{n: "sensors" for n in sensors.output_names}}
+    for key, value in raw.items():
+        out[key if "." in key else f"{owner[key]}.{key}"] = value
+    return out

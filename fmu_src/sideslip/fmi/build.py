@@ -39,9 +39,13 @@ def _fmpy_headers() -> Path:
     return Path(fmpy.__file__).parent / "c-code"
 
 
+def _find_cc() -> str | None:
+    return next((shutil.which(c) for c in (os.environ.get("CC"), "cc", "gcc") if c and shutil.which(c)), None)
+
+
 def compile_shim(work: Path) -> tuple[Path | None, str]:
     """Compile the status shim; returns ``(path or None, message)``."""
-    cc = next((shutil.which(c) for c in (os.environ.get("CC"), "cc", "gcc") if c and shutil.which(c)), None)
+    cc = _find_cc()
     if not cc:
         return None, ("no C compiler found (set CC or install gcc): keeping pythonfmu's plain linux64 binary; "
                       "bad parameters are then reported by a logged error and a refused doStep, not fmi2Error")
@@ -90,6 +94,8 @@ def _install_shim(fmu: Path, model_id: str, shim: Path) -> None:
 
 
 def _build_one(name: str, out_dir: Path, shim: Path | None) -> Path:
+    """Build into a private folder, then move into ``out_dir`` atomically (a concurrent reader
+    never sees a half-written FMU)."""
     from pythonfmu.builder import FmuBuilder
 
     entry = fmu_entry(name)
@@ -97,13 +103,40 @@ def _build_one(name: str, out_dir: Path, shim: Path | None) -> Path:
         # pythonfmu copies the project folder; give it a clean copy of the package (no caches)
         pkg = Path(tmp) / "sideslip"
         shutil.copytree(PACKAGE_DIR, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-        fmu = FmuBuilder.build_FMU(entry.script, dest=out_dir, project_files=[pkg],
-                                   needsExecutionTool=False, canGetAndSetFMUstate=True,
-                                   canSerializeFMUstate=True)
-    fmu = Path(fmu)
-    if shim is not None:
-        _install_shim(fmu, name, shim)
-    return fmu
+        staging = Path(tmp) / "out"
+        staging.mkdir()
+        fmu = Path(FmuBuilder.build_FMU(entry.script, dest=staging, project_files=[pkg],
+                                        needsExecutionTool=False, canGetAndSetFMUstate=True,
+                                        canSerializeFMUstate=True))
+        if shim is not None:
+            _install_shim(fmu, name, shim)
+        final = out_dir / fmu.name
+        part = out_dir / f".{fmu.name}.{os.getpid()}.part"
+        shutil.copy2(fmu, part)
+        os.replace(part, final)
+    return final
+
+
+class _BuildLock:
+    """Exclusive lock on ``out_dir`` while FMUs are checked and built (parallel workers that
+    all ensure the same FMUs build each one once); a no-op where ``fcntl`` is missing."""
+
+    def __init__(self, out_dir: Path):
+        self.path = out_dir / ".build.lock"
+
+    def __enter__(self):
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - Windows: the atomic replace still protects readers
+            self.fd = None
+            return self
+        self.fd = os.open(self.path, os.O_CREAT | os.O_RDWR)
+        fcntl.flock(self.fd, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc):
+        if self.fd is not None:
+            os.close(self.fd)                   # closing releases the lock
 
 
 def build_fmus(names=None, out_dir: Path | str = DEFAULT_OUT, force: bool = False, log=print) -> list[Path]:
@@ -130,28 +163,30 @@ def build_fmus(names=None, out_dir: Path | str = DEFAULT_OUT, force: bool = Fals
     names = sorted(fmu_entries()) if not names else list(names)
     for name in names:
         fmu_entry(name)
-    built = []
-    with tempfile.TemporaryDirectory(prefix="sideslip_shim_") as tmp:
-        shim, msg = compile_shim(Path(tmp))
-        log(msg)
+    with_shim = _find_cc() is not None
+    with _BuildLock(out_dir):
+        digests = {name: _source_hash(fmu_entry(name).script, with_shim) for name in names}
+        todo = []
         for name in names:
-            fmu = out_dir / f"{name}.fmu"
-            stamp = out_dir / f"{name}.fmu.sha256"
-            digest = _source_hash(fmu_entry(name).script, shim is not None)
-            if not force and fmu.is_file() and stamp.is_file() and stamp.read_text().strip() == digest:
+            fmu, stamp = out_dir / f"{name}.fmu", out_dir / f"{name}.fmu.sha256"
+            if not force and fmu.is_file() and stamp.is_file() and stamp.read_text().strip() == digests[name]:
                 log(f"{name}: up to date")
-                built.append(fmu)
-                continue
-            try:
-                fmu = _build_one(name, out_dir, shim)
-            except BuildError:
-                raise
-            except Exception as exc:
-                raise BuildError(f"building {name} failed: {exc!r}") from exc
-            stamp.write_text(digest + "\n")
-            log(f"{name}: built {fmu}")
-            built.append(fmu)
-    return built
+            else:
+                todo.append(name)
+        if todo:
+            with tempfile.TemporaryDirectory(prefix="sideslip_shim_") as tmp:
+                shim, msg = compile_shim(Path(tmp))     # only when something is built
+                log(msg)
+                for name in todo:
+                    try:
+                        fmu = _build_one(name, out_dir, shim)
+                    except BuildError:
+                        raise
+                    except Exception as exc:
+                        raise BuildError(f"building {name} failed: {exc!r}") from exc
+                    (out_dir / f"{name}.fmu.sha256").write_text(digests[name] + "\n")
+                    log(f"{name}: built {fmu}")
+    return [out_dir / f"{name}.fmu" for name in names]
 
 
 def ensure_fmus(names, out_dir: Path | str = DEFAULT_OUT, log=lambda msg: None) -> dict[str, Path]:

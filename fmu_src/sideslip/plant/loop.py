@@ -17,16 +17,23 @@ __all__ = ["run_loop"]
 
 
 def run_loop(plant: VehiclePlant, driver: Driver, duration: float, step: float = 1e-3,
-             sensors: SensorSuite | None = None) -> dict[str, np.ndarray]:
+             sensors: SensorSuite | None = None, observers: dict | None = None) -> dict[str, np.ndarray]:
     """Simulate ``duration`` [s] at communication step ``step`` [s].
+
+    Parameters
+    ----------
+    observers : dict of name -> model, optional
+        Models stepped after the sensors that only consume signals (estimators): their
+        outputs are recorded as ``"<name>.<output>"`` and fed to nobody.
 
     Returns
     -------
     dict
-        ``"time"`` and every output of the driver, plant and sensors (arrays of length
-        ``n + 1``, sample 0 being the initial outputs).
+        ``"time"`` and every output of the driver, plant, sensors and observers (arrays of
+        length ``n + 1``, sample 0 being the initial outputs).
     """
     models = [m for m in (driver, plant, sensors) if m is not None]
+    observers = observers or {}
     names = [nm for m in models for nm in m.output_names]
     if len(set(names)) != len(names):  # pragma: no cover - the catalogue keeps them distinct
         raise RuntimeError("output names of the models overlap")
@@ -34,13 +41,20 @@ def run_loop(plant: VehiclePlant, driver: Driver, duration: float, step: float =
     latest: dict[str, float] = {}
     for m in models:
         latest.update(m.output_dict())
-    rec = np.empty((n + 1, len(names)))
-    rec[0] = [latest[nm] for nm in names]
+    obs_names = [f"{key}.{nm}" for key, m in observers.items() for nm in m.output_names]
+    rec = np.empty((n + 1, len(names) + len(obs_names)))
+
+    def row():
+        return [latest[nm] for nm in names] + [y for m in observers.values() for y in m.outputs()]
+
+    rec[0] = row()
     for k in range(n):
         for m in models:
             m.step(step, *(latest.get(nm, 0.0) for nm in m.input_names))
             latest.update(zip(m.output_names, m.outputs()))
-        rec[k + 1] = [latest[nm] for nm in names]
-    out = {nm: rec[:, i] for i, nm in enumerate(names)}
+        for m in observers.values():
+            m.step(step, *(latest.get(nm, 0.0) for nm in m.input_names))
+        rec[k + 1] = row()
+    out = {nm: rec[:, i] for i, nm in enumerate(names + obs_names)}
     out["time"] = np.arange(n + 1) * step
     return out

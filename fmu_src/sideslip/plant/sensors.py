@@ -250,11 +250,13 @@ class SensorSuite(Model):
             out[SO.OMEGA_RR_M] = omega_rr * k + sig * g()
         out[SO.GPS_FRESH] = 0.0
         outage = self._in_outage(t)
-        if self._gps.due(t) and not outage:
+        if self._gps.due(t):
             truth = self._delayed_velocity(t - cfg.gps_delay)
             if truth is not None:
+                # drawn during outages too, so that an outage leaves every other noise sample unchanged
                 ve = truth[0] + cfg.gps_vel_sigma * g()
                 vn = truth[1] + cfg.gps_vel_sigma * g()
+            if truth is not None and not outage:
                 out[SO.GPS_VE], out[SO.GPS_VN] = ve, vn
                 out[SO.GPS_SPEED] = math.hypot(ve, vn)
                 out[SO.GPS_COURSE] = math.atan2(vn, ve)

@@ -1,0 +1,140 @@
+"""What every estimator shares: configuration, sampling, input latching, validity, outputs.
+
+An estimator is stepped at the master's communication step (1 ms) like any model and runs
+its filter every ``Ts`` (samples at ``k Ts``, several per step if ``Ts`` is shorter than the
+step).  Between samples it keeps the latest inputs; event inputs (``gps_fresh``) are latched
+so that a GPS fix arriving between two samples is not missed.  A sample whose inputs are not
+finite is skipped (the estimate is held and ``valid`` goes false), so no NaN reaches the
+outputs even when the library class is used without the FMU toolkit.
+
+The common outputs of the contract come first, in this order: ``beta_hat``,
+``beta_hat_std``, ``vx_hat``, ``vy_hat``, ``yaw_rate_hat``, ``valid``; each estimator appends
+its own.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+from ..model import Model
+from ..params import check, param
+from ..signals import ESTIMATOR_COMMON_OUTPUTS
+from ..vehicles import VehicleParams, load_vehicle
+
+__all__ = ["EstimatorConfig", "Estimator", "wheel_speed", "input_enum", "beta_std"]
+
+EVENT_INPUTS = ("gps_fresh",)
+"""Inputs that are true for one communication step and must be latched until the next sample."""
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """Parameters shared by every estimator."""
+
+    vehicle: str = param("pi2011_suv", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
+    vehicle_overrides: str = param("", "Dimensionless", "Vehicle parameter overrides, e.g. 'm=2000'")
+    Ts: float = param(0.01, "Time", "Sample period of the filter", gt=0, le=1.0)
+    v_min: float = param(2.0, "Velocity", "Below this speed the estimate is held and valid is false",
+                         gt=0.1, le=20)
+
+    def __post_init__(self):
+        check(self)
+
+
+def input_enum(name: str, names) -> IntEnum:
+    """IntEnum of input positions, member names = upper-case signal names."""
+    return IntEnum(name, {n.upper(): i for i, n in enumerate(names)})
+
+
+def wheel_speed(vehicle: VehicleParams, omega_fl, omega_fr, omega_rl, omega_rr) -> float:
+    """Speed from the undriven wheels, ``R (w_l + w_r) / 2`` (Park 2018 eq. 1).
+
+    The undriven axle follows from the vehicle's drive split; with torque on both axles the
+    mean of all four wheels is used.
+    """
+    if vehicle.drive_split_front >= 1.0:
+        return 0.5 * vehicle.R_w * (omega_rl + omega_rr)
+    if vehicle.drive_split_front <= 0.0:
+        return 0.5 * vehicle.R_w * (omega_fl + omega_fr)
+    return 0.25 * vehicle.R_w * (omega_fl + omega_fr + omega_rl + omega_rr)
+
+
+def beta_std(vx: float, vy: float, var_vx: float, var_vy: float, cov: float) -> float:
+    """1-sigma of ``atan2(vy, vx)`` from the velocity covariance (first-order propagation)."""
+    v2 = vx * vx + vy * vy
+    if v2 <= 0.0:
+        return math.pi
+    jx, jy = -vy / v2, vx / v2
+    return math.sqrt(max(jx * jx * var_vx + 2 * jx * jy * cov + jy * jy * var_vy, 0.0))
+
+
+class Estimator(Model):
+    """Base of the estimators (see module docstring).
+
+    Subclasses set ``input_names`` and ``extra_outputs``, implement :meth:`_sample` (one
+    filter sample with the latched inputs) and :meth:`_extras`, and keep ``beta``,
+    ``beta_std``, ``vx``, ``vy``, ``yaw_rate`` and ``valid`` current.
+    """
+
+    extra_outputs: tuple = ()
+    config_class = EstimatorConfig
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        cls.output_names = ESTIMATOR_COMMON_OUTPUTS + tuple(cls.extra_outputs)
+
+    def __init__(self, config=None, vehicle: VehicleParams | None = None):
+        self.config = cfg = config or self.config_class()
+        self.vehicle = vehicle or load_vehicle(cfg.vehicle, cfg.vehicle_overrides)
+        self.Ts = cfg.Ts
+        self._events = [i for i, n in enumerate(self.input_names) if n in EVENT_INPUTS]
+        self.reset()
+
+    def reset(self) -> None:
+        """Initial state: nothing estimated yet, ``valid`` false."""
+        self._reset_clock()
+        self._samples = 0
+        self._u = [0.0] * len(self.input_names)
+        self._seen = {i: False for i in self._events}   # event seen since the last sample
+        self.beta = self.beta_std = self.vx = self.vy = self.yaw_rate = 0.0
+        self.valid = False
+        self._init_filter()
+        self._out = self._pack()
+
+    def _init_filter(self) -> None:
+        """Reset the method's own state (override)."""
+
+    def _sample(self, u: list) -> None:  # pragma: no cover - every estimator overrides it
+        """One filter sample of period ``self.Ts`` with the latched inputs ``u``."""
+        raise NotImplementedError
+
+    def _extras(self) -> tuple:
+        """Values of ``extra_outputs`` (override)."""
+        return ()
+
+    def _pack(self) -> tuple:
+        return (self.beta, self.beta_std, self.vx, self.vy, self.yaw_rate, 1.0 if self.valid else 0.0,
+                *self._extras())
+
+    def step(self, h: float, *u) -> None:
+        """Advance by ``h`` [s] with the latest inputs ``u`` (``input_names`` order)."""
+        t = self._tick(h)
+        latched = self._u
+        latched[:] = u
+        for i in self._events:                 # an event between two samples is not lost
+            self._seen[i] = self._seen[i] or bool(u[i])
+            latched[i] = 1.0 if self._seen[i] else 0.0
+        ran = False
+        while (self._samples + 1) * self.Ts <= t + 1e-9 * self.Ts:
+            self._samples += 1
+            if math.isfinite(sum(latched)):
+                self._sample(latched)
+            else:
+                self.valid = False             # hold the estimate on bad inputs
+            ran = True
+            for i in self._events:             # an event is used by one sample only
+                latched[i] = 0.0
+                self._seen[i] = False
+        if ran:
+            self._out = self._pack()

@@ -1,0 +1,135 @@
+"""Baseline estimators of Pi 2011 section 3, against which every method is compared.
+
+* :class:`OpenLoopKinematic` - direct integration of the kinematic relation (Pi 2011
+  eqs 21-22): ``d(beta)/dt = (a_y + g sin(bank)) / v_x - r``.  Robust to parameters, drifts
+  with any sensor bias.
+* :class:`LinearBicycleObserver` - the linear single-track model (Pi 2011 eq 20) with the
+  yaw rate as measurement, as a time-varying linear Kalman filter on the shared core (the
+  Kalman gain plays the role of the Luenberger gain ``G`` and gives ``beta_hat_std``).
+  Accurate in the linear range with the right cornering stiffness, wrong beyond it.
+
+Both take the speed from the undriven wheels and the front road-wheel angle from the
+steering sensor.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from ..bicycle import BicycleModel
+from ..params import param
+from ..vehicles import GRAVITY
+from .base import Estimator, EstimatorConfig, input_enum, wheel_speed
+from .kalman import KalmanFilter
+
+__all__ = ["OpenLoopKinematic", "OpenLoopConfig", "LinearBicycleObserver", "BicycleObserverConfig",
+           "discretize"]
+
+_WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
+
+
+def discretize(a: np.ndarray, b: np.ndarray, ts: float) -> tuple[np.ndarray, np.ndarray]:
+    """Zero-order-hold discretisation by the second-order series of the matrix exponential.
+
+    ``A_d = I + A T + (A T)^2 / 2``, ``B_d = (I T + A T^2 / 2) B``.  Used where the model
+    changes every sample (speed-dependent bicycle model): ``scipy.linalg.expm`` costs ~40 us
+    per call, and for ``|lambda| T < 0.2`` the truncation error (``(lambda T)^3 / 6 < 1.4e-3``
+    relative) is far below the model error.
+    """
+    at = a * ts
+    eye = np.eye(a.shape[0])
+    return eye + at + 0.5 * (at @ at), (eye * ts + 0.5 * ts * at) @ b
+
+
+# ------------------------------------------------------------------------------ open loop
+@dataclass(frozen=True)
+class OpenLoopConfig(EstimatorConfig):
+    """Parameters of :class:`OpenLoopKinematic`."""
+
+    bank: float = param(0.0, "Angle", "Road bank angle assumed in eq 22", ge=-0.5, le=0.5)
+    ay_sigma: float = param(0.05, "Acceleration", "Lateral-acceleration noise for the error growth", ge=0, le=10)
+    yaw_rate_sigma: float = param(0.002, "AngularVelocity", "Yaw-rate noise for the error growth", ge=0, le=1)
+
+
+class OpenLoopKinematic(Estimator):
+    """Pi 2011 eq 22: ``beta = int((a_y + g phi_r) / v_x - r) dt``.
+
+    ``beta_hat_std`` grows as the integrated sensor noise (a random walk); bias is not in it.
+    """
+
+    config_class = OpenLoopConfig
+    input_names = ("ay_m", "yaw_rate_m", *_WHEELS)
+    In = input_enum("In", input_names)
+
+    def _init_filter(self):
+        self._var = 0.0
+
+    def _sample(self, u):
+        I, cfg, ts = self.In, self.config, self.Ts
+        vx = wheel_speed(self.vehicle, u[I.OMEGA_FL_M], u[I.OMEGA_FR_M], u[I.OMEGA_RL_M], u[I.OMEGA_RR_M])
+        r = u[I.YAW_RATE_M]
+        self.yaw_rate, self.vx = r, vx
+        if vx < cfg.v_min:                     # eq 22 divides by v_x: hold below v_min
+            self.valid = False
+            return
+        self.beta += ts * ((u[I.AY_M] + GRAVITY * math.sin(cfg.bank)) / vx - r)   # Pi 2011 eq 22
+        self.beta = math.remainder(self.beta, 2.0 * math.pi)
+        self._var += ts * ts * ((cfg.ay_sigma / vx) ** 2 + cfg.yaw_rate_sigma ** 2)
+        self.beta_std = math.sqrt(self._var)
+        self.vy = vx * math.tan(self.beta) if abs(self.beta) < 1.5 else 0.0
+        self.valid = True
+
+
+# ------------------------------------------------------------------------------ linear bicycle
+@dataclass(frozen=True)
+class BicycleObserverConfig(EstimatorConfig):
+    """Parameters of :class:`LinearBicycleObserver`."""
+
+    mu: float = param(1.0, "FrictionCoefficient", "Friction for which the nominal cornering stiffness is taken",
+                      ge=0.05, le=1.5)
+    q_beta: float = param(1e-6, "Dimensionless", "Process noise of beta per sample [rad2]", gt=0, le=1)
+    q_r: float = param(1e-5, "Dimensionless", "Process noise of the yaw rate per sample [rad2/s2]", gt=0, le=1)
+    r_yaw: float = param(2.5e-5, "Dimensionless", "Yaw-rate measurement noise variance [rad2/s2]", gt=0, le=1)
+
+
+class Lin(IntEnum):
+    """State of :class:`LinearBicycleObserver`."""
+    BETA, R = range(2)
+
+
+class LinearBicycleObserver(Estimator):
+    """Pi 2011 eq 20 as a linear Kalman filter: states ``[beta, r]``, input ``delta_f``, measure ``r``."""
+
+    config_class = BicycleObserverConfig
+    input_names = ("delta_m", "yaw_rate_m", *_WHEELS)
+    In = input_enum("In", input_names)
+
+    def _init_filter(self):
+        cfg = self.config
+        self.model = BicycleModel.from_vehicle(self.vehicle, cfg.mu, nominal=True)
+        self.kf = KalmanFilter([0.0, 0.0], np.diag([1e-4, 1e-4]))
+        self._Q = np.diag([cfg.q_beta, cfg.q_r])
+        self._R = np.array([[cfg.r_yaw]])
+        self._H = np.array([[0.0, 1.0]])
+
+    def _sample(self, u):
+        I = self.In
+        vx = wheel_speed(self.vehicle, u[I.OMEGA_FL_M], u[I.OMEGA_FR_M], u[I.OMEGA_RL_M], u[I.OMEGA_RR_M])
+        r_m = u[I.YAW_RATE_M]
+        self.vx = vx
+        if vx < self.config.v_min:             # the model is singular at v_x -> 0: hold
+            self.valid = False
+            self.yaw_rate = r_m
+            return
+        a, b = self.model.matrices(vx)          # Pi 2011 eq 20 (sideslip / yaw-rate form)
+        ad, bd = discretize(a, b[:, :1], self.Ts)
+        kf = self.kf
+        kf.predict(ad @ kf.x + bd[:, 0] * u[I.DELTA_M], ad, self._Q)
+        kf.update([r_m - kf.x[Lin.R]], self._H, self._R)
+        self.beta, self.yaw_rate = float(kf.x[Lin.BETA]), float(kf.x[Lin.R])
+        self.beta_std = kf.std(Lin.BETA)
+        self.vy = vx * math.tan(self.beta)
+        self.valid = True

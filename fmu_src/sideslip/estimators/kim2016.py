@@ -1,0 +1,161 @@
+"""Kim, Yoon, Kim (2016): steering angle, sideslip and yaw rate from an EKF (004_87b9949c55823694.txt).
+
+An EKF on ``x = [beta, gamma, delta]`` (eq 16) with the speed ``v_x`` as input (eq 17) and
+the in-vehicle (ESC) signals ``z = [a_y, gamma]`` as measurements (eq 21).  The steering
+sensor is *not* an input: ``delta`` is estimated, so the measured angle can be checked
+against it.
+
+* Prediction, eq 18: the linear bicycle model (eqs 7-9) advanced by an Euler step (eq 15)
+  for ``beta`` and ``gamma``; the steering model of eq 10, ``delta_k = (l_f + l_r) / v_x
+  gamma_{k-1}`` (Ackermann, small sideslip), for ``delta``.  Jacobian eq 19 (printed with the
+  ``T`` misplaced on the diagonal; here ``I + T A`` as the derivative of eq 18 gives).
+* Measurement, eq 22 re-derived: the printed first row ends in ``C_af delta`` (a force, not an
+  acceleration).  From eq 1, ``a_y = v_x (d(beta)/dt + gamma) = (F_yf + F_yr) / m`` with the
+  linear tires of eqs 3-4, so
+  ``a_y = -(C_af + C_ar)/m beta + (C_ar l_r - C_af l_f)/(m v_x) gamma + C_af/m delta``
+  (every term of the printed row divided by ``m``, which eq 23 then differentiates).
+* Noise: ``R = diag(sigma_ay^2, sigma_gamma^2)`` from Table 2 (1 m/s2, 0.1 rad/s) by
+  default; the paper gives no ``Q`` (eq 20), the defaults below were chosen on the
+  ``kim2016_track_*`` scenarios.
+* Steering-sensor fault detection (the use the paper proposes in its conclusion): the
+  residual ``delta_m - delta_hat`` is low-pass filtered (time constant ``residual_tau``); a
+  fault is flagged when its magnitude stays above ``fault_threshold`` for ``fault_confirm``
+  seconds, and the flag is latched (cleared by a reset) unless ``fault_latch`` is false.
+
+The cornering stiffnesses are the vehicle's nominal axle values (Table 1 for ``kim2016_asm``).
+The accelerometer is not roll-compensated, as in the paper: at the 3 m/s2 of its track the
+``g sin(phi)`` error (about 0.2 m/s2) is a fifth of the sensor noise of Table 2.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from ..bicycle import BicycleModel
+from ..params import param
+from .base import Estimator, EstimatorConfig, input_enum, wheel_speed
+from .kalman import KalmanFilter
+
+__all__ = ["Kim2016Config", "Kim2016SteeringEKF", "St", "kim_f", "kim_F", "kim_h", "kim_H"]
+
+_WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
+
+
+class St(IntEnum):
+    """State of eq 16."""
+    BETA, GAMMA, DELTA = range(3)
+
+
+# ------------------------------------------------------------------------------ the model
+def kim_F(x, vx: float, model: BicycleModel, ts: float) -> np.ndarray:
+    """Eq 19: Jacobian of :func:`kim_f`; ``[[I + T A, T b], [0, l / v_x, 0]]`` with ``A``, ``b`` of eq 9.
+
+    Eq 18 is linear in the state for a given ``v_x``, so this is also its transition matrix.
+    """
+    a, b = model.matrices(vx)
+    F = np.zeros((3, 3))
+    F[:St.DELTA, :St.DELTA] = np.eye(2) + ts * a
+    F[:St.DELTA, St.DELTA] = ts * b[:, 0]
+    F[St.DELTA, St.GAMMA] = model.l / vx                  # eq 10: delta = (l_f + l_r) gamma / v_x
+    return F
+
+
+def kim_f(x, vx: float, model: BicycleModel, ts: float) -> np.ndarray:
+    """Eq 18: Euler step (eq 15) of the bicycle model (eq 9) and the steering model (eq 10)."""
+    return kim_F(x, vx, model, ts) @ np.asarray(x, dtype=float)
+
+
+def kim_H(vx: float, model: BicycleModel) -> np.ndarray:
+    """Eq 23 (of the re-derived eq 22): rows ``a_y = v_x (d(beta)/dt + gamma)`` and ``gamma``."""
+    a, b = model.matrices(vx)
+    H = np.zeros((2, 3))
+    H[0, :St.DELTA] = vx * a[0]                           # v_x d(beta)/dt ...
+    H[0, St.GAMMA] += vx                                  # ... + v_x gamma
+    H[0, St.DELTA] = vx * b[0, 0]
+    H[1, St.GAMMA] = 1.0
+    return H
+
+
+def kim_h(x, vx: float, model: BicycleModel) -> np.ndarray:
+    """Eq 22 re-derived: ``[a_y, gamma]`` predicted from the state (linear in ``x``)."""
+    return kim_H(vx, model) @ np.asarray(x, dtype=float)
+
+
+# ------------------------------------------------------------------------------ configuration
+@dataclass(frozen=True)
+class Kim2016Config(EstimatorConfig):
+    """Parameters of :class:`Kim2016SteeringEKF` (Table 2 values for ``R``)."""
+
+    vehicle: str = param("kim2016_asm", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
+    mu: float = param(1.0, "FrictionCoefficient", "Friction for which the nominal cornering stiffness is taken",
+                      ge=0.05, le=1.5)
+    q_beta: float = param(1e-7, "Dimensionless", "Q(1,1) of eq 20: sideslip process noise per sample [rad2]",
+                          gt=0, le=1)
+    q_gamma: float = param(1e-4, "Dimensionless", "Q(2,2) of eq 20: yaw-rate process noise per sample [rad2/s2]",
+                           gt=0, le=1)
+    q_delta: float = param(1e-5, "Dimensionless", "Q(3,3) of eq 20: steering-model noise per sample [rad2]",
+                           gt=0, le=1)
+    sigma_ay: float = param(1.0, "Acceleration", "Lateral-acceleration noise (Table 2), R(1,1) = sigma^2",
+                            gt=0, le=20)
+    sigma_gamma: float = param(0.1, "AngularVelocity", "Yaw-rate noise (Table 2), R(2,2) = sigma^2", gt=0, le=5)
+    residual_tau: float = param(0.5, "Time", "Time constant of the low-pass filter on delta_m - delta_hat",
+                                gt=0, le=60)
+    fault_threshold: float = param(0.05, "Angle", "Fault when |filtered residual| exceeds this (road-wheel angle)",
+                                   gt=0, le=1)
+    fault_confirm: float = param(0.3, "Time", "... for at least this long", ge=0, le=60)
+    fault_latch: bool = param(True, "Dimensionless", "Keep the fault flag once raised (until reset)")
+
+
+# ------------------------------------------------------------------------------ the filter
+class Kim2016SteeringEKF(Estimator):
+    """Kim 2016 EKF on ``[beta, gamma, delta]`` with the steering-sensor residual test."""
+
+    config_class = Kim2016Config
+    input_names = ("ay_m", "yaw_rate_m", "delta_m", *_WHEELS)
+    extra_outputs = ("delta_hat", "delta_residual", "delta_fault")
+    In = input_enum("In", input_names)
+
+    def _init_filter(self):
+        cfg = self.config
+        self.model = BicycleModel.from_vehicle(self.vehicle, cfg.mu, nominal=True)
+        self.kf = KalmanFilter([0.0, 0.0, 0.0], np.diag([1e-4, 1e-2, 1e-4]))
+        self._Q = np.diag([cfg.q_beta, cfg.q_gamma, cfg.q_delta])
+        self._R = np.diag([cfg.sigma_ay ** 2, cfg.sigma_gamma ** 2])
+        self._lpf = math.exp(-self.Ts / cfg.residual_tau)
+        self.delta = self.residual = 0.0
+        self.fault = False
+        self._over = 0.0                       # time the residual has been over the threshold [s]
+
+    def _extras(self) -> tuple:
+        return (self.delta, self.residual, 1.0 if self.fault else 0.0)
+
+    def _sample(self, u):
+        I, cfg, ts, model = self.In, self.config, self.Ts, self.model
+        vx = wheel_speed(self.vehicle, u[I.OMEGA_FL_M], u[I.OMEGA_FR_M], u[I.OMEGA_RL_M], u[I.OMEGA_RR_M])
+        self.vx = vx
+        if vx < cfg.v_min:                     # eqs 7-10 divide by v_x: hold, and restart the residual test
+            self.valid = False
+            self.yaw_rate = u[I.YAW_RATE_M]
+            self._over = 0.0
+            return
+        kf = self.kf
+        F = kim_F(kf.x, vx, model, ts)
+        kf.predict(F @ kf.x, F, self._Q)                   # eq 18 (linear for a given v_x)
+        H = kim_H(vx, model)
+        kf.update(np.array([u[I.AY_M], u[I.YAW_RATE_M]]) - H @ kf.x, H, self._R)
+        x = kf.x
+        self.beta, self.yaw_rate, self.delta = float(x[St.BETA]), float(x[St.GAMMA]), float(x[St.DELTA])
+        self.beta_std = kf.std(St.BETA)
+        self.vy = vx * math.tan(self.beta)
+        self.valid = True
+
+        # steering-sensor residual test
+        self.residual = self._lpf * self.residual + (1.0 - self._lpf) * (u[I.DELTA_M] - self.delta)
+        self._over = self._over + ts if abs(self.residual) > cfg.fault_threshold else 0.0
+        if self._over >= cfg.fault_confirm - 1e-9:
+            self.fault = True
+        elif not cfg.fault_latch:
+            self.fault = False

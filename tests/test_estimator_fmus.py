@@ -1,0 +1,140 @@
+"""Estimator FMUs through fmpy: equal to the library step for step, save/restore, bad inputs and parameters."""
+import math
+
+import numpy as np
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from sideslip.cosim.runner import run_library, scenario_params
+from sideslip.cosim.scenarios import get_scenario
+from sideslip.estimators import ESTIMATORS
+from sideslip.params import build
+
+from conftest import assert_save_restore_repeats, finite
+
+CASES = [("Park2018Observer", "park2018_case2"), ("Kim2016SteeringEKF", "kim2016_track_80"),
+         ("OpenLoopKinematic", "park2018_case3"), ("LinearBicycleObserver", "pi2011_high")]
+
+
+@pytest.fixture(scope="module")
+def recorded():
+    """Sensor signals (and the library estimator outputs) of the first 8 s of each case."""
+    out = {}
+    for name, scenario in CASES:
+        res = run_library(scenario, [name], duration=8.0)
+        cls = ESTIMATORS[name]
+        inputs = np.column_stack([res[f"sensors.{n}"] if f"sensors.{n}" in res else res[f"driver.{n}"]
+                                  for n in cls.input_names])
+        outputs = np.column_stack([res[f"{name}.{n}"] for n in cls.output_names])
+        out[name] = (scenario, inputs, outputs)
+    return out
+
+
+def _params(name, scenario):
+    return scenario_params(ESTIMATORS[name].config_class, get_scenario(scenario))
+
+
+def _inputs(name, row):
+    return dict(zip(ESTIMATORS[name].input_names, row))
+
+
+@pytest.mark.parametrize("name", [c[0] for c in CASES])
+def test_estimator_fmu_equals_library_step_for_step(harness, recorded, name):
+    scenario, inputs, outputs = recorded[name]
+    fmu = harness(name)
+    fmu.init(**_params(name, scenario))
+    for k in range(1, len(inputs)):
+        fmu.step(**_inputs(name, inputs[k]))
+        assert fmu.outputs() == list(outputs[k]), f"step {k}"
+
+
+@pytest.mark.parametrize("name", [c[0] for c in CASES])
+def test_estimator_save_restore_continues_identically(harness, recorded, name):
+    scenario, inputs, _ = recorded[name]
+    fmu = harness(name)
+    fmu.init(**_params(name, scenario))
+
+    def drive(k0, n):
+        out = []
+        for k in range(k0, k0 + n):
+            fmu.step(**_inputs(name, inputs[k]))
+            out.append(fmu.outputs())
+        return out
+
+    drive(1, 4500)                                            # past the Park kinematic EKF's start
+    assert_save_restore_repeats(fmu, lambda: drive(4501, 1500))
+
+
+@pytest.mark.parametrize("name", [c[0] for c in CASES])
+def test_nan_inputs_are_held_and_logged_and_never_reach_the_outputs(harness, recorded, name):
+    scenario, inputs, outputs = recorded[name]
+    fmu = harness(name, logging=True)
+    fmu.init(**_params(name, scenario))
+    for k in range(1, 3000):
+        row = _inputs(name, inputs[k])
+        if 1000 <= k < 1300:
+            row = {n: (math.nan if i % 2 == 0 else math.inf) for i, n in enumerate(row)}
+        fmu.step(**row)
+        out = fmu.outputs()
+        assert finite(out)
+    assert fmu.get("valid") == [1.0]                          # held inputs: the filter kept running
+    assert any("holding the last valid value" in m for _, m in fmu.messages)
+    # logged once per input, not once per step
+    assert sum("holding the last valid value" in m for _, m in fmu.messages) <= len(ESTIMATORS[name].input_names)
+
+
+@pytest.mark.parametrize("name", [c[0] for c in CASES])
+def test_reversing_and_standstill_set_valid_false_without_nan(harness, recorded, name):
+    scenario, inputs, _ = recorded[name]
+    fmu = harness(name)
+    fmu.init(**_params(name, scenario))
+    for k in range(1, 3000):
+        fmu.step(**_inputs(name, inputs[k]))
+    assert fmu.get("valid") == [1.0]
+    wheels = {n: -20.0 for n in ESTIMATORS[name].input_names if n.startswith("omega_")}
+    for _ in range(50):
+        fmu.step(**{**_inputs(name, inputs[3000]), **wheels})
+        assert finite(fmu.outputs())
+    assert fmu.get("valid") == [0.0]
+    for _ in range(50):
+        fmu.step(**{**_inputs(name, inputs[3000]), **{n: 0.0 for n in wheels}})
+        assert finite(fmu.outputs())
+    assert fmu.get("valid") == [0.0]
+
+
+@pytest.mark.parametrize("name,params,param_name,allowed", [
+    ("Park2018Observer", dict(Ts=0.0), "Ts", "(0, 1]"),
+    ("Park2018Observer", dict(vehicle="no_such_car"), "vehicle", "park2018_sonata"),
+    ("Kim2016SteeringEKF", dict(fault_threshold=-0.1), "fault_threshold", "(0, 1]"),
+    ("LinearBicycleObserver", dict(mu=3.0), "mu", "[0.05, 1.5]"),
+    ("OpenLoopKinematic", dict(v_min=0.0), "v_min", "(0.1, 20]"),
+])
+def test_bad_estimator_parameter_gives_fmi2error_naming_it(harness, name, params, param_name, allowed):
+    fmu = harness(name, logging=True)
+    fmu.fmu.setupExperiment(startTime=0.0)
+    fmu.fmu.enterInitializationMode()
+    fmu.set(**params)
+    with pytest.raises(FMICallException):
+        fmu.fmu.exitInitializationMode()
+    text = " ".join(m for _, m in fmu.messages)
+    assert param_name in text and allowed in text
+
+
+def test_park_gps_course_wrap_and_outage_in_the_fmu(harness):
+    """park2018_case3 with a 5 s GPS outage through the FMU: the heading crosses +-pi on the circles,
+    the kinematic EKF runs open loop during the outage, and no output is ever NaN."""
+    sc = get_scenario("park2018_case3", sensor_gps_outages="15-20")
+    res = run_library(sc, [], duration=25.0)
+    cls = ESTIMATORS["Park2018Observer"]
+    fmu = harness("Park2018Observer")
+    fmu.init(**scenario_params(cls.config_class, sc))
+    lib = cls(build(cls.config_class, scenario_params(cls.config_class, sc)))
+    t = res["time"]
+    for k in range(1, t.size):
+        u = [res[f"sensors.{n}"][k] if f"sensors.{n}" in res else res[f"driver.{n}"][k] for n in cls.input_names]
+        fmu.step(**dict(zip(cls.input_names, u)))
+        lib.step(1e-3, *u)
+        if k % 100 == 0:
+            out = fmu.outputs()
+            assert finite(out) and out == list(lib.outputs())
+    assert np.ptp(np.unwrap(res["plant.yaw"])) > 2 * math.pi          # over a lap: the course passes +-pi
