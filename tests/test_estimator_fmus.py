@@ -12,8 +12,11 @@ from sideslip.params import build
 
 from conftest import assert_save_restore_repeats, finite
 
-CASES = [("Park2018Observer", "park2018_case2"), ("Kim2016SteeringEKF", "kim2016_track_80"),
-         ("OpenLoopKinematic", "park2018_case3"), ("LinearBicycleObserver", "pi2011_high")]
+CASES = [("Park2018Observer", get_scenario("park2018_case2")), ("Kim2016SteeringEKF", get_scenario("kim2016_track_80")),
+         ("OpenLoopKinematic", get_scenario("park2018_case3")), ("LinearBicycleObserver", get_scenario("pi2011_high")),
+         ("Nguyen2012DACMRKF", get_scenario("nguyen2012_cornering")), ("Pi2011FuzzyEKF", get_scenario("pi2011_low")),
+         # Yoon: a shorter standstill so that the first seconds include driving (and GPS fixes to shift)
+         ("Yoon2014DualKF", get_scenario("yoon2014_jturn_asphalt_banked", maneuver_t_go=1.0))]
 
 
 @pytest.fixture(scope="module")
@@ -23,15 +26,22 @@ def recorded():
     for name, scenario in CASES:
         res = run_library(scenario, [name], duration=8.0)
         cls = ESTIMATORS[name]
-        inputs = np.column_stack([res[f"sensors.{n}"] if f"sensors.{n}" in res else res[f"driver.{n}"]
-                                  for n in cls.input_names])
+        inputs = np.column_stack([_signal(res, n) for n in cls.input_names])
         outputs = np.column_stack([res[f"{name}.{n}"] for n in cls.output_names])
         out[name] = (scenario, inputs, outputs)
     return out
 
 
+def _signal(res, name):
+    """A recorded input: from the sensors, else the driver, else 0 (Mz_cmd without a controller)."""
+    for inst in ("sensors", "driver"):
+        if f"{inst}.{name}" in res:
+            return res[f"{inst}.{name}"]
+    return np.zeros_like(res["time"])
+
+
 def _params(name, scenario):
-    return scenario_params(ESTIMATORS[name].config_class, get_scenario(scenario))
+    return scenario_params(ESTIMATORS[name].config_class, scenario)
 
 
 def _inputs(name, row):
@@ -131,7 +141,7 @@ def test_park_gps_course_wrap_and_outage_in_the_fmu(harness):
     lib = cls(build(cls.config_class, scenario_params(cls.config_class, sc)))
     t = res["time"]
     for k in range(1, t.size):
-        u = [res[f"sensors.{n}"][k] if f"sensors.{n}" in res else res[f"driver.{n}"][k] for n in cls.input_names]
+        u = [_signal(res, n)[k] for n in cls.input_names]
         fmu.step(**dict(zip(cls.input_names, u)))
         lib.step(1e-3, *u)
         if k % 100 == 0:

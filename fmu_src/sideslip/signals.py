@@ -158,10 +158,24 @@ _ENTRIES = [
     _real("delta_hat", "Angle", "Estimated front road-wheel steering angle", -1.0, 1.0),
     _real("delta_residual", "Angle", "Low-pass filtered steering residual delta_m - delta_hat", -2.0, 2.0),
     _bool("delta_fault", "True while the steering-sensor residual test detects a fault"),
+    _real("roll_hat", "Angle", "Estimated roll angle of the body (positive: right side down)", -1.0, 1.0),
+    _real("bias_ax_hat", "Acceleration", "Estimated bias of ax_m", -20.0, 20.0),
+    _real("bias_ay_hat", "Acceleration", "Estimated bias of ay_m", -20.0, 20.0),
+    _real("gps_delay_hat", "Time", "Estimated (or configured) delay of the GPS velocity", 0.0, 5.0),
+    _bool("mag_disturbed", "True while the magnetometer is judged disturbed (field norm off unity)"),
+    _real("nonlinear_factor", "Dimensionless", "Fuzzy nonlinear factor (0: linear tires, 1: at the limit)",
+          0.0, 1.0),
+    _real("Fyf_hat", "Force", "Estimated front-axle lateral force", -1.0e5, 1.0e5),
+    _real("Fyr_hat", "Force", "Estimated rear-axle lateral force", -1.0e5, 1.0e5),
+    _real("d1_hat", "AngularVelocity", "Estimated lumped disturbance of the sideslip equation (d1)", -100.0, 100.0),
+    _real("d2_hat", "AngularAcceleration", "Estimated lumped disturbance of the yaw equation (d2)", -1000.0,
+          1000.0),
     # --- controller -----------------------------------------------------------------------
     _real("Mz_cmd", "Torque", "Direct-yaw-moment command for the in-wheel motors", -2.0e4, 2.0e4),
     _real("beta_ref", "Angle", "Reference sideslip angle of the reference model", -_PI, _PI),
     _real("yaw_rate_ref", "AngularVelocity", "Reference yaw rate of the reference model", -10.0, 10.0),
+    _real("Mz_ff", "Torque", "Feed-forward part of the yaw-moment command (before saturation)", -1.0e7, 1.0e7),
+    _real("Mz_fb", "Torque", "LQR feedback part of the yaw-moment command (before saturation)", -1.0e7, 1.0e7),
 ]
 
 SIGNALS: dict[str, Signal] = {}

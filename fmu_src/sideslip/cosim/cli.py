@@ -61,6 +61,7 @@ def _run(args, estimators, out_dir) -> int:
     run = run_scenario(args.scenario, estimators, controller, out_dir=out_dir, duration=args.duration,
                        step=args.step, record_every=args.record_every, fmu_dir=args.fmu_dir,
                        params=_kv(args.param, "--param"), overrides=_kv(args.set, "--set"),
+                       control_source=getattr(args, "control_source", None),
                        progress=progress if sys.stderr.isatty() else None)
     print("", file=sys.stderr)
     m = run.metrics
@@ -107,14 +108,27 @@ def _cmd_paper(args) -> int:
 
     params = _kv(args.param, "--param")
     out = {}
-    if args.name == "park2018":
+    if params and args.name not in ("park2018", "nguyen2012", "pi2011"):
+        raise SystemExit(f"--param applies to park2018, nguyen2012 and pi2011, not {args.name}")
+    if args.name == "nguyen2012":
+        out["accuracy"] = acc = pt.nguyen2012_accuracy(args.fmu_dir, args.workers,
+                                                       params={k.split(".", 1)[-1]: v for k, v in params.items()})
+        text = ["Nguyen 2012 Table III: sideslip RMSD [rad] (paper in parentheses)", "",
+                pt.format_nguyen2012_accuracy(acc)]
+    elif args.name == "pi2011":
+        out["accuracy"] = acc = pt.pi2011_accuracy(args.fmu_dir, args.workers, params=params or None)
+        text = ["Pi 2011 Table 4: normalised sideslip error (eq 48), max / mean [%] (paper in parentheses)", "",
+                pt.format_pi2011_accuracy(acc)]
+    elif args.name == "yoon2014":
+        out["accuracy"] = acc = pt.yoon2014_accuracy(args.fmu_dir, args.workers,
+                                                     scenarios=args.extra or pt.YOON_SCENARIOS)
+        text = ["Yoon 2014: sideslip RMS [deg] of the method and its ablations", "", pt.format_yoon2014_accuracy(acc)]
+    elif args.name == "park2018":
         out["accuracy"] = acc = pt.park2018_accuracy(args.fmu_dir, args.workers, params=params or None)
         out["gps_outage"] = outage = pt.park2018_gps_outage(args.fmu_dir, workers=args.workers)
         text = ["Park 2018 Table 3: sideslip error RMS / max [deg]", "", pt.format_park2018_accuracy(acc), "",
                 pt.format_park2018_gps_outage(outage)]
     else:
-        if params:
-            raise SystemExit("--param applies to park2018 only")
         out["accuracy"] = acc = pt.kim2016_accuracy(args.fmu_dir, args.workers, extra_scenarios=args.extra or ())
         out["fault_detection"] = faults = pt.kim2016_fault_detection(args.fmu_dir, args.workers)
         text = ["Kim 2016 Table 3: RMSE", "", pt.format_kim2016_accuracy(acc), "",
@@ -137,6 +151,17 @@ def _cmd_build(args) -> int:
     return 0
 
 
+def _cmd_control(args) -> int:
+    from . import control_eval as ce
+
+    factors = tuple(float(f) for f in args.factors.split(",")) if args.factors else ce.FMVSS_FACTORS
+    table = ce.control_evaluation(args.fmu_dir, args.workers, sources=args.source, factors=factors,
+                                  directions=("", "_right") if not args.left_only else ("",),
+                                  params=_kv(args.param, "--param") or None)
+    print(json.dumps(table, indent=2, default=str) if args.json else ce.format_control_evaluation(table))
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of ``python -m sideslip`` and the ``sideslip`` console script."""
     from ..fmi.build import DEFAULT_OUT
@@ -150,6 +175,8 @@ def main(argv=None) -> int:
     def run_args(sp, scenario_required):
         sp.add_argument("--scenario", required=scenario_required, help="scenario name (see list)")
         sp.add_argument("--controller", default="none", help="controller FMU or 'none'")
+        sp.add_argument("--control-source", help="what feeds the controller: an estimator instance (default: the "
+                        "first) or 'truth' (the plant's beta and vx)")
         sp.add_argument("--out", help="output folder (default out/<scenario>)")
         sp.add_argument("--duration", type=float, help="simulated time [s] (default: the scenario's)")
         sp.add_argument("--step", type=float, default=1e-3, help="communication step [s] (default 1e-3)")
@@ -167,13 +194,23 @@ def main(argv=None) -> int:
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--duration", type=float, default=5.0, help="simulated seconds per measurement")
     paper = sub.add_parser("paper", help="reproduce a paper's result tables with the FMUs in closed loop")
-    paper.add_argument("name", choices=("park2018", "kim2016"))
+    paper.add_argument("name", choices=("park2018", "kim2016", "nguyen2012", "pi2011", "yoon2014"))
     paper.add_argument("--workers", type=int, default=2, help="parallel runs (default %(default)s)")
     paper.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE",
                        help="estimator parameter override for the accuracy table (ablations)")
     paper.add_argument("--extra", action="append", metavar="SCENARIO",
-                       help="kim2016: more fault-free scenarios for the false-alarm check")
+                       help="kim2016: more fault-free scenarios for the false-alarm check; yoon2014: run only these")
     paper.add_argument("--json", action="store_true")
+    ctl = sub.add_parser("control", help="closed-loop evaluation of the LQR controller: FMVSS 126, brake in a "
+                         "turn, cornering; no control, true sideslip, each estimator")
+    ctl.add_argument("--source", action="append", help="'none', 'truth' or an estimator FMU (repeatable; "
+                     "default: all)")
+    ctl.add_argument("--factors", help="FMVSS 126 amplitudes in multiples of A, comma-separated "
+                     "(default 1.5 to 6.5 in 0.5 steps)")
+    ctl.add_argument("--left-only", action="store_true", help="FMVSS 126: only the left-first direction")
+    ctl.add_argument("--param", action="append", metavar="controller.NAME=VALUE", help="controller parameter")
+    ctl.add_argument("--workers", type=int, default=2)
+    ctl.add_argument("--json", action="store_true")
     sub.add_parser("fmu-tables", help="markdown I/O tables of the FMUs (as in the README)")
     build = sub.add_parser("build", help="build the FMUs")
     build.add_argument("names", nargs="*")
@@ -181,7 +218,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     try:
         return {"list": _cmd_list, "run": _cmd_run, "demo": _cmd_demo, "bench": _cmd_bench, "paper": _cmd_paper,
-                "build": _cmd_build, "fmu-tables": _cmd_fmu_tables}[args.cmd](args)
+                "control": _cmd_control, "build": _cmd_build, "fmu-tables": _cmd_fmu_tables}[args.cmd](args)
     except (KeyError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

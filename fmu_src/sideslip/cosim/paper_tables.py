@@ -14,6 +14,12 @@ Markdown tables of the README.  ``python -m sideslip paper NAME`` prints them.
   and steering angle [rad] on the two tracks, with the fault flag (false alarms).
 * :func:`kim2016_fault_detection` - detection delay of stuck and offset steering-sensor
   faults.
+* :func:`nguyen2012_accuracy` - Table III of Nguyen 2012: RMSD of sideslip [rad] of the SRKF,
+  MRKF and DACMRKF, and their error between GPS fixes.
+* :func:`pi2011_accuracy` - Table 4 of Pi 2011: normalised error (eq 48) of the method and the
+  model- and kinematics-based baselines on three roads.
+* :func:`yoon2014_accuracy` - Yoon 2014 Section V: sideslip RMS per run and overall with the
+  error sources of Table II, the ablations, and Table III's disturbance levels.
 """
 from __future__ import annotations
 
@@ -29,7 +35,9 @@ from ..fmi.build import DEFAULT_OUT, ensure_fmus
 from .metrics import wrap
 from .runner import run_scenario
 
-__all__ = ["PARK2018_TABLE3", "KIM2016_TABLE3", "run_jobs", "park2018_accuracy", "park2018_gps_outage",
+__all__ = ["PARK2018_TABLE3", "KIM2016_TABLE3", "NGUYEN2012_TABLE3", "PI2011_TABLE4", "nguyen2012_accuracy",
+           "format_nguyen2012_accuracy", "pi2011_accuracy", "format_pi2011_accuracy", "yoon2014_accuracy",
+           "format_yoon2014_accuracy", "run_jobs", "park2018_accuracy", "park2018_gps_outage",
            "kim2016_accuracy", "kim2016_fault_detection", "format_park2018_accuracy", "format_park2018_gps_outage",
            "format_kim2016_accuracy", "format_kim2016_fault_detection"]
 
@@ -55,24 +63,29 @@ PARK_COLUMNS = (("integrated", "Park2018Observer", "beta_hat"),
 # ------------------------------------------------------------------------------ running
 def _job(args):
     """One closed-loop run in a worker: metrics plus the requested recorded fields."""
-    scenario, estimators, overrides, params, fields, fmu_dir, duration = args
+    scenario, estimators, overrides, params, fields, fmu_dir, duration, options = args
     run = run_scenario(scenario, estimators, fmu_dir=fmu_dir, overrides=overrides, params=params,
-                       duration=duration)
+                       duration=duration, **options)
     res = run.results
     return run.metrics, {f: np.asarray(res[f], dtype=float) for f in ("time", *fields)}
 
 
 def run_jobs(jobs, fmu_dir=DEFAULT_OUT, workers: int = 2) -> list:
-    """Run ``(scenario, estimators, overrides, params, fields[, duration])`` jobs, in parallel.
+    """Run ``(scenario, estimators, overrides, params, fields[, duration[, options]])`` jobs, in parallel.
+
+    ``options`` are more keyword arguments of :func:`run_scenario` (``controller``,
+    ``control_source``).
 
     Returns
     -------
     list of (dict, dict)
         Per job, in order: the run's metrics and ``{field: array}`` of ``fields``.
     """
-    names = sorted({e for job in jobs for e in job[1]} | {"VehiclePlant", "VehicleSensors", "ManeuverDriver"})
-    ensure_fmus(names, fmu_dir)                     # build once, before the workers start
-    args = [(*job[:5], str(fmu_dir), job[5] if len(job) > 5 else None) for job in jobs]
+    names = {e.split("=")[-1] for job in jobs for e in job[1]} | {"VehiclePlant", "VehicleSensors", "ManeuverDriver"}
+    names |= {job[6]["controller"] for job in jobs if len(job) > 6 and job[6].get("controller")}
+    ensure_fmus(sorted(names), fmu_dir)             # build once, before the workers start
+    args = [(*job[:5], str(fmu_dir), job[5] if len(job) > 5 else None, job[6] if len(job) > 6 else {})
+            for job in jobs]
     if workers <= 1 or len(args) == 1:
         return [_job(a) for a in args]
     # spawn, not fork: a forked child inherits the parent's loaded FMUs and interpreter state of
@@ -284,3 +297,168 @@ def format_kim2016_fault_detection(rows: list) -> str:
             delay += f" ({r['delay_after_departure_s']:.2f} after the true angle leaves the frozen value)"
         lines.append(f"| {r['scenario']} | {fault} | {r['t_fault']:g} | {delay} |")
     return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------ Nguyen 2012
+NGUYEN2012_TABLE3 = {"nguyen2012_lanechange": {"srkf": 1.02e-2, "mrkf": 0.86e-2, "dacmrkf": 0.38e-2},
+                     "nguyen2012_cornering": {"srkf": 1.12e-2, "mrkf": 0.87e-2, "dacmrkf": 0.41e-2}}
+"""Nguyen 2012 Table III: RMSD of the sideslip angle [rad]."""
+
+NGUYEN_MODES = ("srkf", "mrkf", "dacmrkf")
+
+
+def nguyen2012_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, params=None, bin_s: float = 0.02) -> dict:
+    """Nguyen 2012 Table III: the three filters side by side (one FMU, three instances).
+
+    Parameters
+    ----------
+    params : dict, optional
+        ``{"<parameter>": value}`` applied to all three instances (e.g. ``discretization``).
+    bin_s : float
+        Width of the bins of time since the last GPS fix for the inter-sample error [s].
+
+    Returns
+    -------
+    dict
+        ``{scenario: {"rmsd": {mode: rad}, "paper": {mode: rad}, "inter_sample": {mode: [rad per
+        bin]}, "bin_s": bin_s}}``.
+    """
+    ests = tuple(f"{m}=Nguyen2012DACMRKF" for m in NGUYEN_MODES)
+    overrides = {f"{m}.{k}": v for m in NGUYEN_MODES for k, v in (params or {}).items()}
+    overrides.update({f"{m}.mode": m for m in NGUYEN_MODES})
+    fields = ["plant.beta", "sensors.gps_fresh", *(f"{m}.beta_hat" for m in NGUYEN_MODES),
+              *(f"{m}.valid" for m in NGUYEN_MODES)]
+    names = list(NGUYEN2012_TABLE3)
+    out = {}
+    for name, (metrics, arr) in zip(names, run_jobs([(n, ests, None, overrides, fields) for n in names],
+                                                    fmu_dir, workers)):
+        t = arr["time"]
+        fixes = t[arr["sensors.gps_fresh"] > 0.5]
+        last = np.searchsorted(fixes, t, side="right") - 1          # index of the last fix at or before t
+        since = np.where(last >= 0, t - fixes[np.maximum(last, 0)], np.inf)
+        bins = np.where(last >= 0, np.floor(np.where(last >= 0, since, 0.0) / bin_s), -1).astype(int)
+        n_bins = int(round(0.2 / bin_s))
+        row = {"rmsd": {}, "paper": NGUYEN2012_TABLE3[name], "inter_sample": {}, "bin_s": bin_s}
+        for m in NGUYEN_MODES:
+            row["rmsd"][m] = metrics["estimators"][m]["beta_hat"]["rms"] / _DEG
+            err = arr[f"{m}.beta_hat"] - arr["plant.beta"]
+            ok = (arr[f"{m}.valid"] > 0.5) & (last >= 0)
+            row["inter_sample"][m] = [float(np.sqrt(np.mean(err[ok & (bins == b)] ** 2))) for b in range(n_bins)]
+        out[name] = row
+    return out
+
+
+def format_nguyen2012_accuracy(table: dict) -> str:
+    """Markdown: RMSD per filter (paper in parentheses), then the error by time since the last fix."""
+    lines = ["| scenario | " + " | ".join(m.upper() for m in NGUYEN_MODES) + " |",
+             "|---|" + "---:|" * len(NGUYEN_MODES)]
+    for name, row in table.items():
+        lines.append(f"| {name} | " + " | ".join(f"{row['rmsd'][m] * 100:.3f}e-2 ({row['paper'][m] * 100:.2f}e-2)"
+                                                  for m in NGUYEN_MODES) + " |")
+    for name, row in table.items():
+        b = row["bin_s"] * 1e3
+        n = len(row["inter_sample"][NGUYEN_MODES[0]])
+        lines += ["", f"{name}: RMS sideslip error [1e-3 rad] by time since the last GPS fix",
+                  "| filter | " + " | ".join(f"{k * b:g}-{(k + 1) * b:g} ms" for k in range(n)) + " |",
+                  "|---|" + "---:|" * n]
+        for m in NGUYEN_MODES:
+            lines.append(f"| {m.upper()} | " + " | ".join(f"{v * 1e3:.2f}" for v in row["inter_sample"][m]) + " |")
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------ Pi 2011
+PI2011_TABLE4 = {"pi2011_high": {"method": (5.1, 0.388), "model": (35.5, 6.4), "kinematic": (16.3, 7.0)},
+                 "pi2011_medium": {"method": (8.0, 0.307), "model": (41.7, 7.8), "kinematic": (9.9, 4.7)},
+                 "pi2011_low": {"method": (12.2, 1.5), "model": (135.2, 28.0), "kinematic": (164.9, 102.4)}}
+"""Pi 2011 Table 4: road -> estimator -> (max, mean) normalised error of eq 48 [%]."""
+
+PI_COLUMNS = (("method", "Pi2011FuzzyEKF"), ("model", "LinearBicycleObserver"), ("kinematic", "OpenLoopKinematic"))
+
+
+def pi2011_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, params=None) -> dict:
+    """Pi 2011 Table 4: max and mean normalised sideslip error (eq 48) of the method and the two baselines.
+
+    Returns
+    -------
+    dict
+        ``{road: {column: {"max": %, "mean": %}, "paper": {column: (max, mean)}}}``.
+    """
+    names = list(PI2011_TABLE4)
+    ests = tuple(fmu for _, fmu in PI_COLUMNS)
+    out = {}
+    for name, (metrics, _) in zip(names, run_jobs([(n, ests, None, params, ()) for n in names], fmu_dir, workers)):
+        row = {}
+        for label, fmu in PI_COLUMNS:
+            b = metrics["estimators"][fmu]["beta_hat"]
+            row[label] = {"max": b["norm_max_pct"], "mean": b["norm_mean_pct"]}
+        row["paper"] = PI2011_TABLE4[name]
+        out[name] = row
+    return out
+
+
+def format_pi2011_accuracy(table: dict) -> str:
+    """Markdown: max / mean normalised error [%] per road, the paper's in parentheses."""
+    lines = ["| road | " + " | ".join(f"{label} ({fmu})" for label, fmu in PI_COLUMNS) + " |",
+             "|---|" + "---:|" * len(PI_COLUMNS)]
+    for name, row in table.items():
+        cells = [f"{row[lb]['max']:.1f} / {row[lb]['mean']:.2f} ({row['paper'][lb][0]:g} / {row['paper'][lb][1]:g})"
+                 for lb, _ in PI_COLUMNS]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------ Yoon 2014
+YOON_SCENARIOS = tuple(f"yoon2014_{m}_{r}{b}" for m in ("slc", "dlc", "slalom", "jturn") for r in ("asphalt", "ice")
+                       for b in ("", "_banked"))
+YOON_VARIANTS = {"full": {}, "no_shifting": {"measurement_shifting": False},
+                 "no_rejection": {"disturbance_rejection": False}}
+"""The method and its two ablations, run side by side (one FMU, three instances)."""
+YOON_DISTURBANCES = {"table2": {}, "[0.05,1] at 20%": {"sensor_mag_dist_min": 0.05, "sensor_mag_dist_max": 1.0,
+                                                       "sensor_mag_dist_share": 0.2},
+                     "[0.05,1] at 40%": {"sensor_mag_dist_min": 0.05, "sensor_mag_dist_max": 1.0,
+                                         "sensor_mag_dist_share": 0.4}}
+"""Magnetic disturbance levels: Table II's (the scenarios' own) and Table III's two."""
+
+
+def yoon2014_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, scenarios=YOON_SCENARIOS,
+                      disturbances=tuple(YOON_DISTURBANCES)) -> dict:
+    """Sideslip RMS [deg] of Yoon 2014 and its ablations per run, per disturbance level, and overall.
+
+    Returns
+    -------
+    dict
+        ``{level: {"runs": {scenario: {variant: rms}}, "overall": {variant: rms}}}``; "overall" is
+        the RMS over all samples of all runs (each run's valid samples above 2 m/s).
+    """
+    ests = tuple(f"{v}=Yoon2014DualKF" for v in YOON_VARIANTS)
+    params = {f"{v}.{k}": val for v, over in YOON_VARIANTS.items() for k, val in over.items()}
+    fields = ["plant.beta", "plant.vx", "plant.vy", *(f"{v}.{f}" for v in YOON_VARIANTS for f in ("beta_hat", "valid"))]
+    jobs = [(sc, ests, YOON_DISTURBANCES[level] or None, params, fields) for level in disturbances for sc in scenarios]
+    results = iter(run_jobs(jobs, fmu_dir, workers))
+    out = {}
+    for level in disturbances:
+        runs, pooled = {}, {v: [] for v in YOON_VARIANTS}
+        for sc in scenarios:
+            metrics, arr = next(results)
+            runs[sc] = {v: metrics["estimators"][v]["beta_hat"]["rms"] for v in YOON_VARIANTS}
+            moving = np.hypot(arr["plant.vx"], arr["plant.vy"]) > 2.0
+            for v in YOON_VARIANTS:
+                ok = moving & (arr[f"{v}.valid"] > 0.5)
+                pooled[v].append(wrap(arr[f"{v}.beta_hat"][ok] - arr["plant.beta"][ok]) * _DEG)
+        out[level] = {"runs": runs, "overall": {v: float(np.sqrt(np.mean(np.concatenate(e) ** 2)))
+                                                for v, e in pooled.items()}}
+    return out
+
+
+def format_yoon2014_accuracy(table: dict) -> str:
+    """Markdown: per run and overall sideslip RMS [deg] of the method and its ablations, per disturbance level."""
+    variants = list(YOON_VARIANTS)
+    lines = []
+    for level, res in table.items():
+        lines += [f"Magnetic disturbances: {level}", "",
+                  "| run | " + " | ".join(variants) + " |", "|---|" + "---:|" * len(variants)]
+        for sc, row in res["runs"].items():
+            lines.append(f"| {sc} | " + " | ".join(f"{row[v]:.3f}" for v in variants) + " |")
+        lines.append("| **overall** | " + " | ".join(f"**{res['overall'][v]:.3f}**" for v in variants) + " |")
+        lines.append("")
+    return "\n".join(lines).rstrip()

@@ -22,6 +22,8 @@ from .scenarios import Scenario, get_scenario
 __all__ = ["scenario_components", "scenario_params", "run_scenario", "run_library", "RunOutput"]
 
 PLANT, SENSORS, DRIVER = "VehiclePlant", "VehicleSensors", "ManeuverDriver"
+TRUTH_SOURCE = {"beta": "beta_hat", "vx": "vx_hat"}
+"""Plant truth -> controller input when the controller runs on the true sideslip (``control_source="truth"``)."""
 
 
 def scenario_params(config_class, scenario: Scenario) -> dict:
@@ -47,36 +49,47 @@ def scenario_components(scenario: Scenario, estimators=(), controller: str | Non
     ----------
     scenario : Scenario
     estimators : iterable of str
-        Estimator FMU names (instance name = FMU name).
+        Estimator FMU names (instance name = FMU name), or ``"instance=FMU"`` to run one FMU
+        several times under different names (e.g. ``"srkf=Nguyen2012DACMRKF"``).
     controller : str, optional
         Controller FMU name (instance ``controller``).
     params : dict, optional
         ``{"instance.parameter": value}`` overrides of FMU parameters.
     control_source : str, optional
-        Estimator instance feeding the controller (default: the first).
+        Estimator instance feeding the controller (default: the first), or ``"truth"``: the
+        plant's true ``beta`` and ``vx`` (the default without estimators).
 
     Returns
     -------
     list of Component, list of (str, str)
     """
-    estimators = list(estimators)
+    pairs = [tuple(e.split("=", 1)) if "=" in e else (e, e) for e in estimators]
+    estimators = [inst for inst, _ in pairs]
     known = set(fmu_names("estimator"))
-    for e in estimators:
-        if e not in known:
-            raise KeyError(f"unknown estimator {e!r}; estimators: {', '.join(sorted(known)) or 'none yet'}")
+    for _, fmu in pairs:
+        if fmu not in known:
+            raise KeyError(f"unknown estimator {fmu!r}; estimators: {', '.join(sorted(known)) or 'none yet'}")
     comps = [Component(DRIVER, "driver", scenario.driver_params()),
              Component(PLANT, "plant", scenario.plant_params()),
              Component(SENSORS, "sensors", scenario.sensor_params())]
-    comps += [Component(e, e, _auto_params(e, scenario)) for e in estimators]
+    comps += [Component(fmu, inst, _auto_params(fmu, scenario)) for inst, fmu in pairs]
     connections = []
     if controller:
         if controller not in fmu_names("controller"):
             raise KeyError(f"unknown controller {controller!r}; controllers: {', '.join(fmu_names('controller'))}")
         comps.append(Component(controller, "controller", _auto_params(controller, scenario)))
-        source = control_source or (estimators[0] if estimators else None)
         inputs = set(fmu_entry(controller).inputs)
-        if source is not None and len(estimators) > 1:
-            for name in inputs & set(fmu_entry(source).outputs):
+        source = control_source or (estimators[0] if estimators else "truth")
+        if not inputs & set(TRUTH_SOURCE.values()):
+            pass                                     # the controller estimates for itself
+        elif source == "truth":
+            for truth, name in TRUTH_SOURCE.items():
+                if name in inputs:
+                    connections.append((f"plant.{truth}", f"controller.{name}"))
+        elif source not in dict(pairs):
+            raise KeyError(f"control source {source!r}: use 'truth' or one of the estimators {', '.join(estimators)}")
+        elif len(estimators) > 1:
+            for name in inputs & set(fmu_entry(dict(pairs)[source]).outputs):
                 connections.append((f"{source}.{name}", f"controller.{name}"))
     for key, value in (params or {}).items():
         inst, _, name = key.partition(".")
@@ -125,6 +138,7 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
     """
     sc = get_scenario(scenario, **(overrides or {})) if isinstance(scenario, str) else scenario
     comps, conns = scenario_components(sc, estimators, controller, params, control_source)
+    estimators = [e.split("=", 1)[0] for e in estimators]          # instance names
     t0 = time.perf_counter()
     with CoSimulation(comps, conns, step=step, record_every=record_every, fmu_dir=fmu_dir) as sim:
         res = sim.run(duration if duration is not None else sc.duration, progress=progress)

@@ -231,7 +231,8 @@ def _yoon(man: str, road: str, banked: bool) -> Scenario:
     return Scenario(name, f"{man.upper()} on {'banked ' if banked else ''}{road} (mu {mu})",
                     "Yoon & Peng 2014 Section V, Table II", "kim2016_asm", spec, dur, road_mu=f"{mu}",
                     road_bank=f"{bank:.10g}", sensors=sensors, notes=_YOON_NOTES,
-                    hints={"gps_delay": 0.4, "t_maneuver": t_man})
+                    hints={"mag_inclination": _YOON_SENSORS["mag_inclination"],
+                           "mag_declination": _YOON_SENSORS["mag_declination"], "t_maneuver": t_man})
 
 
 for _m in ("slc", "dlc", "slalom", "jturn"):
@@ -295,14 +296,17 @@ for _v, _dur in ((40, 300.0), (80, 185.0)):
         _dur, road_mu="1.0", sensors=_KIM_SENSORS, notes=_KIM_NOTES))
 
 # ------------------------------------------------------------------------------------------------
-# FMVSS 126 sine with dwell (49 CFR 571.126 S7.7): the SUV on mu 0.5
+# FMVSS 126 sine with dwell (49 CFR 571.126 S7.7): the SUV on mu 0.5 and 0.8
 # ------------------------------------------------------------------------------------------------
 _FMVSS_NOTE = ("FMVSS 126: 80 km/h, throttle released at the beginning of steer; A is the handwheel angle for "
                "0.3 g in the slowly increasing steer test at 80 km/h on the same surface (computed with the "
                "plant, see fmvss126_reference_angle); amplitudes 1.5A to 6.5A in 0.5A steps, capped at 270 deg.",
-               "The pi2011_suv (2325 kg, CG height 0.925 m) on mu 0.5 is the configuration that loses yaw "
-               "stability uncontrolled (issue: 'e.g. the SUV at mu 0.5').")
+               "The pi2011_suv (2325 kg, CG height 0.925 m) loses yaw stability uncontrolled on mu 0.5 from 3A "
+               "and on mu 0.8 from 5A. mu 0.8 is the stability-control configuration: there the 1.83 m lateral "
+               "displacement at 1.07 s is within reach (2.18 m uncontrolled at 5A); on mu 0.5 no controller can "
+               "reach it (the spinning car makes 1.68 m, a stable one less).")
 _FMVSS_SENSORS = dict(seed=126, imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0, gps_rate=10.0)
+_FMVSS_MU = {"05": 0.5, "08": 0.8}
 
 
 @lru_cache(maxsize=8)
@@ -331,24 +335,27 @@ def fmvss126_reference_angle(vehicle: str = "pi2011_suv", mu: float = 0.5) -> fl
     return float(res["delta_sw"][i - 1] + w * (res["delta_sw"][i] - res["delta_sw"][i - 1]))
 
 
-def _fmvss(factor: float | None, direction: float) -> Scenario:
-    side = "" if direction > 0 else "_right"
+def _fmvss(surface: str, factor: float | None, direction: float) -> Scenario:
+    side, mu = ("" if direction > 0 else "_right"), _FMVSS_MU[surface]
     if factor is None:
         spec = _spec("slowly_increasing_steer", direction=direction, t_start=2.0, duration=25.0)
-        return Scenario(f"fmvss126_suv_mu05_sis{side}", "FMVSS 126 slowly increasing steer, SUV, mu 0.5",
-                        "FMVSS 126 S7.6", "pi2011_suv", spec, 25.0, road_mu="0.5", sensors=_FMVSS_SENSORS,
-                        notes=_FMVSS_NOTE)
-    spec = _spec("sine_with_dwell", A=fmvss126_reference_angle("pi2011_suv", 0.5), factor=factor,
+        return Scenario(f"fmvss126_suv_mu{surface}_sis{side}", f"FMVSS 126 slowly increasing steer, SUV, mu {mu}",
+                        "FMVSS 126 S7.6", "pi2011_suv", spec, 25.0, road_mu=f"{mu}", sensors=_FMVSS_SENSORS,
+                        notes=_FMVSS_NOTE, hints={"mu": mu})
+    spec = _spec("sine_with_dwell", A=fmvss126_reference_angle("pi2011_suv", mu), factor=factor,
                  direction=direction, t_start=3.0, duration=8.0)
-    return Scenario(f"fmvss126_suv_mu05_a{factor:.1f}{side}",
-                    f"FMVSS 126 sine with dwell {factor:.1f}A, SUV, mu 0.5", "FMVSS 126 S7.7", "pi2011_suv",
-                    spec, 8.0, road_mu="0.5", sensors=_FMVSS_SENSORS, notes=_FMVSS_NOTE,
-                    hints={"completion_of_steer": 3.0 + 1 / 0.7 + 0.5, "beginning_of_steer": 3.0})
+    return Scenario(f"fmvss126_suv_mu{surface}_a{factor:.1f}{side}",
+                    f"FMVSS 126 sine with dwell {factor:.1f}A, SUV, mu {mu}", "FMVSS 126 S7.7", "pi2011_suv",
+                    spec, 8.0, road_mu=f"{mu}", sensors=_FMVSS_SENSORS, notes=_FMVSS_NOTE,
+                    hints={"completion_of_steer": 3.0 + 1 / 0.7 + 0.5, "beginning_of_steer": 3.0, "mu": mu})
 
 
 _FMVSS_FACTORS = tuple(1.5 + 0.5 * i for i in range(11))
-_LAZY = {f"fmvss126_suv_mu05_sis{s}": (None, d) for s, d in (("", 1.0), ("_right", -1.0))}
-_LAZY.update({f"fmvss126_suv_mu05_a{f:.1f}{s}": (f, d) for f in _FMVSS_FACTORS for s, d in (("", 1.0), ("_right", -1.0))})
+_LAZY = {}
+for _surface in _FMVSS_MU:
+    for _s, _d in (("", 1.0), ("_right", -1.0)):
+        _LAZY[f"fmvss126_suv_mu{_surface}_sis{_s}"] = (_surface, None, _d)
+        _LAZY.update({f"fmvss126_suv_mu{_surface}_a{f:.1f}{_s}": (_surface, f, _d) for f in _FMVSS_FACTORS})
 
 
 def scenario_names() -> list[str]:

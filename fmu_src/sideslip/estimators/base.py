@@ -22,7 +22,7 @@ from ..params import check, param
 from ..signals import ESTIMATOR_COMMON_OUTPUTS
 from ..vehicles import VehicleParams, load_vehicle
 
-__all__ = ["EstimatorConfig", "Estimator", "wheel_speed", "input_enum", "beta_std"]
+__all__ = ["EstimatorConfig", "Estimator", "undriven_wheels", "input_enum", "beta_std", "lowpass"]
 
 EVENT_INPUTS = ("gps_fresh",)
 """Inputs that are true for one communication step and must be latched until the next sample."""
@@ -47,17 +47,19 @@ def input_enum(name: str, names) -> IntEnum:
     return IntEnum(name, {n.upper(): i for i, n in enumerate(names)})
 
 
-def wheel_speed(vehicle: VehicleParams, omega_fl, omega_fr, omega_rl, omega_rr) -> float:
-    """Speed from the undriven wheels, ``R (w_l + w_r) / 2`` (Park 2018 eq. 1).
-
-    The undriven axle follows from the vehicle's drive split; with torque on both axles the
-    mean of all four wheels is used.
-    """
+def undriven_wheels(vehicle: VehicleParams) -> tuple[str, ...]:
+    """Wheel-speed inputs of the undriven axle (from the drive split), all four if both axles drive."""
     if vehicle.drive_split_front >= 1.0:
-        return 0.5 * vehicle.R_w * (omega_rl + omega_rr)
+        return ("omega_rl_m", "omega_rr_m")
     if vehicle.drive_split_front <= 0.0:
-        return 0.5 * vehicle.R_w * (omega_fl + omega_fr)
-    return 0.25 * vehicle.R_w * (omega_fl + omega_fr + omega_rl + omega_rr)
+        return ("omega_fl_m", "omega_fr_m")
+    return ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
+
+
+def lowpass(prev: float, value: float, ts: float, cutoff: float) -> float:
+    """One step of a first-order low-pass filter (exact discretisation; ``cutoff`` in Hz)."""
+    a = math.exp(-2.0 * math.pi * cutoff * ts)
+    return a * prev + (1.0 - a) * value
 
 
 def beta_std(vx: float, vy: float, var_vx: float, var_vy: float, cov: float) -> float:
@@ -89,6 +91,9 @@ class Estimator(Model):
         self.vehicle = vehicle or load_vehicle(cfg.vehicle, cfg.vehicle_overrides)
         self.Ts = cfg.Ts
         self._events = [i for i, n in enumerate(self.input_names) if n in EVENT_INPUTS]
+        wheels = undriven_wheels(self.vehicle)
+        self._wheel_ix = tuple(self.input_names.index(w) for w in wheels if w in self.input_names)
+        self._wheel_gain = self.vehicle.R_w / len(wheels)
         self.reset()
 
     def reset(self) -> None:
@@ -104,6 +109,15 @@ class Estimator(Model):
 
     def _init_filter(self) -> None:
         """Reset the method's own state (override)."""
+
+    def speed(self, u) -> float:
+        """Speed from the undriven wheels, ``R (w_l + w_r) / 2`` (Park 2018 eq. 1) [m/s]; the mean of
+        all four wheels when both axles drive."""
+        ix = self._wheel_ix
+        total = u[ix[0]] + u[ix[1]]
+        if len(ix) == 4:
+            total += u[ix[2]] + u[ix[3]]
+        return self._wheel_gain * total
 
     def _sample(self, u: list) -> None:  # pragma: no cover - every estimator overrides it
         """One filter sample of period ``self.Ts`` with the latched inputs ``u``."""

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 from enum import IntEnum
 
 import numpy as np
@@ -22,26 +23,13 @@ import numpy as np
 from ..bicycle import BicycleModel
 from ..params import param
 from ..vehicles import GRAVITY
-from .base import Estimator, EstimatorConfig, input_enum, wheel_speed
+from .base import Estimator, EstimatorConfig, input_enum
+from .discrete import SpeedCache
 from .kalman import KalmanFilter
 
-__all__ = ["OpenLoopKinematic", "OpenLoopConfig", "LinearBicycleObserver", "BicycleObserverConfig",
-           "discretize"]
+__all__ = ["OpenLoopKinematic", "OpenLoopConfig", "LinearBicycleObserver", "BicycleObserverConfig"]
 
 _WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
-
-
-def discretize(a: np.ndarray, b: np.ndarray, ts: float) -> tuple[np.ndarray, np.ndarray]:
-    """Zero-order-hold discretisation by the second-order series of the matrix exponential.
-
-    ``A_d = I + A T + (A T)^2 / 2``, ``B_d = (I T + A T^2 / 2) B``.  Used where the model
-    changes every sample (speed-dependent bicycle model): ``scipy.linalg.expm`` costs ~40 us
-    per call, and for ``|lambda| T < 0.2`` the truncation error (``(lambda T)^3 / 6 < 1.4e-3``
-    relative) is far below the model error.
-    """
-    at = a * ts
-    eye = np.eye(a.shape[0])
-    return eye + at + 0.5 * (at @ at), (eye * ts + 0.5 * ts * at) @ b
 
 
 # ------------------------------------------------------------------------------ open loop
@@ -69,7 +57,7 @@ class OpenLoopKinematic(Estimator):
 
     def _sample(self, u):
         I, cfg, ts = self.In, self.config, self.Ts
-        vx = wheel_speed(self.vehicle, u[I.OMEGA_FL_M], u[I.OMEGA_FR_M], u[I.OMEGA_RL_M], u[I.OMEGA_RR_M])
+        vx = self.speed(u)
         r = u[I.YAW_RATE_M]
         self.yaw_rate, self.vx = r, vx
         if vx < cfg.v_min:                     # eq 22 divides by v_x: hold below v_min
@@ -95,6 +83,12 @@ class BicycleObserverConfig(EstimatorConfig):
     r_yaw: float = param(2.5e-5, "Dimensionless", "Yaw-rate measurement noise variance [rad2/s2]", gt=0, le=1)
 
 
+def _steering_model(model: BicycleModel, vx: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eq 20's ``A`` and the steering column of ``B`` (the yaw moment is not an input here)."""
+    a, b = model.matrices(vx)
+    return a, b[:, :1]
+
+
 class Lin(IntEnum):
     """State of :class:`LinearBicycleObserver`."""
     BETA, R = range(2)
@@ -110,26 +104,29 @@ class LinearBicycleObserver(Estimator):
     def _init_filter(self):
         cfg = self.config
         self.model = BicycleModel.from_vehicle(self.vehicle, cfg.mu, nominal=True)
+        self._matrices = SpeedCache(partial(_steering_model, self.model), self.Ts)
         self.kf = KalmanFilter([0.0, 0.0], np.diag([1e-4, 1e-4]))
         self._Q = np.diag([cfg.q_beta, cfg.q_r])
-        self._R = np.array([[cfg.r_yaw]])
-        self._H = np.array([[0.0, 1.0]])
+        self._r_yaw = cfg.r_yaw
 
     def _sample(self, u):
         I = self.In
-        vx = wheel_speed(self.vehicle, u[I.OMEGA_FL_M], u[I.OMEGA_FR_M], u[I.OMEGA_RL_M], u[I.OMEGA_RR_M])
-        r_m = u[I.YAW_RATE_M]
+        vx = self.speed(u)
+        self.advance(vx, u[I.DELTA_M], u[I.YAW_RATE_M])
+
+    def advance(self, vx: float, delta: float, r_m: float) -> None:
+        """One filter sample with speed ``vx`` [m/s], road-wheel angle ``delta`` [rad] and measured
+        yaw rate ``r_m`` [rad/s] (also used by Yoon 2014 for straight driving)."""
         self.vx = vx
         if vx < self.config.v_min:             # the model is singular at v_x -> 0: hold
             self.valid = False
             self.yaw_rate = r_m
             return
-        a, b = self.model.matrices(vx)          # Pi 2011 eq 20 (sideslip / yaw-rate form)
-        ad, bd = discretize(a, b[:, :1], self.Ts)
+        F, FG = self._matrices(vx)              # Pi 2011 eq 20 (sideslip / yaw-rate form), zero-order hold
         kf = self.kf
-        kf.predict(ad @ kf.x + bd[:, 0] * u[I.DELTA_M], ad, self._Q)
-        kf.update([r_m - kf.x[Lin.R]], self._H, self._R)
-        self.beta, self.yaw_rate = float(kf.x[Lin.BETA]), float(kf.x[Lin.R])
+        kf.predict(FG.dot((kf.x[Lin.BETA], kf.x[Lin.R], delta)), F, self._Q)
+        kf.update_state(Lin.R, r_m - kf.x[Lin.R], self._r_yaw)
+        self.beta, self.yaw_rate = kf.x.tolist()
         self.beta_std = kf.std(Lin.BETA)
         self.vy = vx * math.tan(self.beta)
         self.valid = True

@@ -6,16 +6,20 @@ and writes only its model: the predicted mean and Jacobian for :meth:`~KalmanFil
 the innovation and measurement Jacobian for :meth:`~KalmanFilter.update`.  The caller
 computes the innovation ``z - h(x)`` so that angle measurements can be wrapped.
 
-Covariance updates use the Joseph form ``P = (I - K H) P (I - K H)^T + K R K^T`` and the
-covariance is re-symmetrised after every update, so it stays symmetric positive definite
-even with poorly conditioned gains.  At 3x3-5x5 numpy's per-call overhead dominates, so the
-core uses ``ndarray.dot`` (half the cost of ``@`` at this size) and one raw LAPACK solve per
-update: a predict costs ~4 us, an update ~12 us on the 2-core benchmark machine.  Filters
-that run every 1 ms use :meth:`update_scalar`, which needs no solve.
+Vector updates use the Joseph form ``P = (I - K H) P (I - K H)^T + K R K^T`` and re-symmetrise
+the covariance, so it stays symmetric positive definite even with poorly conditioned gains.
+Scalar updates (:meth:`update_scalar`, :meth:`update_state`) compute their gain from the same
+``P``, for which the Joseph form reduces exactly to a symmetric rank-1 downdate (one BLAS call).
+
+At 3x3-5x5 numpy's per-call overhead dominates, so the core uses ``ndarray.dot`` (half the cost
+of ``@`` at this size), one raw LAPACK solve per vector update and one BLAS call per scalar
+update: a predict costs ~3 us, a vector update ~12 us, a scalar update ~4 us on the 2-core
+benchmark machine.
 """
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg.blas import dger as _ger
 from scipy.linalg.lapack import dgesv as _gesv
 
 __all__ = ["KalmanFilter"]
@@ -39,6 +43,7 @@ class KalmanFilter:
         if self.P.shape != (n, n):
             raise ValueError(f"P0 must be {n}x{n}, got {self.P.shape}")
         self._eye = np.eye(n)
+        self._predictions = 0
 
     @property
     def n(self) -> int:
@@ -58,7 +63,12 @@ class KalmanFilter:
             Process-noise covariance of the step.
         """
         self.x = np.asarray(x_pred, dtype=float)
-        self.P = F.dot(self.P).dot(F.T) + Q     # symmetric to rounding; every update re-symmetrises
+        P = F.dot(self.P).dot(F.T)
+        P += Q
+        self._predictions += 1
+        if self._predictions % 64 == 0:         # F P F^T and the rank-1 updates are symmetric to rounding
+            P = 0.5 * (P + P.T)                 # only; a periodic re-symmetrisation bounds the drift
+        self.P = P
 
     def update(self, innovation, H, R) -> float:
         """Measurement update with innovation ``z - h(x)``, Jacobian ``H`` and noise ``R``.
@@ -88,7 +98,10 @@ class KalmanFilter:
         """Update with one scalar measurement (row ``h``, variance ``r``); no matrix inverse.
 
         Equal to :meth:`update` with a 1x1 ``S``; several independent scalar measurements may
-        be applied one after the other.
+        be applied one after the other.  With the gain ``k = P h / s`` computed here from the
+        same ``P``, the Joseph form reduces exactly to the rank-1 downdate
+        ``P - (P h)(P h)^T / s``, done in one BLAS ``dger`` call; it stays positive definite
+        because ``s = h^T P h + r > h^T P h``.
 
         Returns
         -------
@@ -96,13 +109,35 @@ class KalmanFilter:
             Normalised innovation squared ``y^2 / s``.
         """
         h = np.asarray(h, dtype=float)
-        Ph = self.P.dot(h)
+        P = self.P
+        Ph = P.dot(h)
         s = float(h.dot(Ph)) + r
-        k = Ph / s
-        self.x = self.x + k * innovation
-        A = self._eye - k[:, None] * h
-        P = A.dot(self.P).dot(A.T) + r * (k[:, None] * k)     # Joseph form
-        self.P = 0.5 * (P + P.T)
+        innovation = float(innovation)
+        self.x = self.x + Ph * (innovation / s)
+        self.P = _ger(-1.0 / s, Ph, Ph, a=P)
+        return innovation * innovation / s
+
+    def update_state(self, i: int, innovation: float, r: float) -> float:
+        """Update with a direct measurement of state ``i`` (``h = e_i``), variance ``r``.
+
+        With ``p = P[:, i]``, ``s = P[i, i] + r`` and the gain ``k = p / s`` computed here from
+        the same ``P``, the Joseph form reduces exactly to the rank-1 downdate ``P - p p^T / s``;
+        computed as ``p`` outer ``p`` times ``1/s`` it is symmetric bitwise and stays positive
+        definite for ``r > 0`` (``p_j^2 <= P_ii P_jj < s P_jj``).  It costs a third of
+        :meth:`update_scalar` (six numpy calls), which matters for the filters that update the
+        yaw rate every 1 ms.
+
+        Returns
+        -------
+        float
+            Normalised innovation squared ``y^2 / s``.
+        """
+        P = self.P
+        p = P[:, i].copy()                                # not a view: dger may update P's buffer in place
+        s = P.item(i, i) + r                              # Python floats from here: numpy scalars are slow
+        innovation = float(innovation)
+        self.x = self.x + p * (innovation / s)
+        self.P = _ger(-1.0 / s, p, p, a=P)                # BLAS rank-1 update, one call
         return innovation * innovation / s
 
     def std(self, i: int) -> float:

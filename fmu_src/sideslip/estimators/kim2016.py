@@ -36,7 +36,7 @@ import numpy as np
 
 from ..bicycle import BicycleModel
 from ..params import param
-from .base import Estimator, EstimatorConfig, input_enum, wheel_speed
+from .base import Estimator, EstimatorConfig, input_enum
 from .kalman import KalmanFilter
 
 __all__ = ["Kim2016Config", "Kim2016SteeringEKF", "St", "kim_f", "kim_F", "kim_h", "kim_H"]
@@ -134,7 +134,7 @@ class Kim2016SteeringEKF(Estimator):
 
     def _sample(self, u):
         I, cfg, ts, model = self.In, self.config, self.Ts, self.model
-        vx = wheel_speed(self.vehicle, u[I.OMEGA_FL_M], u[I.OMEGA_FR_M], u[I.OMEGA_RL_M], u[I.OMEGA_RR_M])
+        vx = self.speed(u)
         self.vx = vx
         if vx < cfg.v_min:                     # eqs 7-10 divide by v_x: hold, and restart the residual test
             self.valid = False

@@ -18,12 +18,9 @@ The whole method of 000_2165c3893fcd1b2c.txt (Fig. 1), every block fed forward:
    ``(1-K)``/``K`` blend of the bicycle and kinematic models and whose pseudo-measurements are
    the ``K``-weighted outputs of the two EKFs.
 6. **Roll compensation** (addition, ``roll_compensation``): the paper's ``a_y`` is the lateral
-   acceleration of the CG (eqs 8, 19, 26) but a body-fixed accelerometer also reads
-   ``g sin(phi)`` when the body rolls (0.45 m/s2 at 0.65 g for the Sonata).  The paper neglects
-   roll; left in, it biases both sub-filters by about 1 deg in steady turns (case 4).  A
-   second-order roll model of the vehicle's suspension (``I_roll phi'' + C_phi phi' +
-   (K_phi - m_s g h_s) phi = m_s h_s a_y``) driven by the corrected ``a_y`` gives ``phi``, and
-   ``g sin(phi)`` is removed from the measurement.  Off, the method is exactly the paper's.
+   acceleration of the CG; a body-fixed accelerometer also reads ``g sin(roll)``.  Left in, it
+   biases both sub-filters by about 1 deg in steady turns (case 4); the vehicle's roll model
+   (:mod:`sideslip.estimators.roll`) removes it.  Off, the method is exactly the paper's.
 7. **GPS outage**: while ``gps_valid`` is false the kinematic EKF runs without GPS updates
    (open-loop integration from its last corrected state) and the GPS-based offsets are held;
    it re-converges when fixes return.  The always open-loop estimator of the paper's figures
@@ -46,8 +43,9 @@ import numpy as np
 
 from ..params import param
 from ..vehicles import GRAVITY
-from .base import Estimator, EstimatorConfig, beta_std, input_enum, wheel_speed
+from .base import Estimator, EstimatorConfig, beta_std, input_enum, lowpass
 from .kalman import KalmanFilter
+from .roll import RollCompensator
 
 __all__ = ["Park2018Config", "Park2018Observer", "Bic", "Kin", "Intg", "bicycle_f", "bicycle_F", "bicycle_h", "bicycle_H",
            "kinematic_f", "kinematic_F", "kinematic_h", "kinematic_H", "integrated_f", "integrated_F",
@@ -192,12 +190,6 @@ def weighting_factor(dcf, dcr, nf, nr, mu, tau_f, eps_f, tau_r, eps_r) -> float:
     return min(max(max(abs(nf) * kf, abs(nr) * kr) / mu, 0.0), 1.0)
 
 
-def _lowpass(prev: float, value: float, ts: float, cutoff: float) -> float:
-    """First-order low-pass filter step (exact discretisation, cut-off in Hz)."""
-    a = math.exp(-2.0 * math.pi * cutoff * ts)
-    return a * prev + (1.0 - a) * value
-
-
 # ------------------------------------------------------------------------------ configuration
 @dataclass(frozen=True)
 class Park2018Config(EstimatorConfig):
@@ -294,9 +286,7 @@ class Park2018Observer(Estimator):
         self._H_int = np.eye(3)
         self._vy_ol = 0.0
         self._settled = 0.0                   # time the compensator has been active [s]
-        self._phi = self._phi_rate = 0.0      # roll model state (roll compensation)
-        self._roll = (v.I_roll, v.C_phi_f + v.C_phi_r, v.K_phi_f + v.K_phi_r - v.m_s * GRAVITY * v.h_s,
-                      v.m_s * v.h_s)
+        self._roll = RollCompensator(v, self.Ts)
         self.K = 0.0
         self.Cf = self.Cr = 0.0
         self.yaw = 0.0
@@ -306,22 +296,12 @@ class Park2018Observer(Estimator):
         return (self.yaw, self.Cf, self.Cr, self.K, self.b_x, self.b_y, self.b_r, self.b_R,
                 self.beta_bic, self.beta_kin, self.beta_ol)
 
-    def _roll_compensated(self, ay_meas: float) -> float:
-        """CG lateral acceleration from the body-fixed reading: ``(a_y,m - g sin(phi)) / cos(phi)``
-        with ``phi`` from the suspension roll model, advanced by one sample (semi-implicit Euler)."""
-        i_roll, c_phi, k_phi, mshs = self._roll
-        phi = self._phi
-        ay = (ay_meas - GRAVITY * math.sin(phi)) / math.cos(phi)
-        self._phi_rate += self.Ts * (mshs * ay - k_phi * phi - c_phi * self._phi_rate) / i_roll
-        self._phi = phi + self.Ts * self._phi_rate
-        return ay
-
     # ---------------------------------------------------------------- one sample
     def _sample(self, u):
         I, cfg, v, ts = self.In, self.config, self.vehicle, self.Ts
         t = self.t
         ax_m, ay_m, r_m, delta = u[I.AX_M], u[I.AY_M], u[I.YAW_RATE_M], u[I.DELTA_M]
-        vw_m = wheel_speed(v, u[I.OMEGA_FL_M], u[I.OMEGA_FR_M], u[I.OMEGA_RL_M], u[I.OMEGA_RR_M])
+        vw_m = self.speed(u)
         gps_ok = u[I.GPS_VALID] != 0.0
         fresh = gps_ok and u[I.GPS_FRESH] != 0.0
         vs = u[I.GPS_SPEED]
@@ -330,16 +310,16 @@ class Park2018Observer(Estimator):
 
         # ---- signal conditioning: steering rate, GPS acceleration (eq 5)
         if self._delta_prev is not None:
-            self._delta_rate = _lowpass(self._delta_rate, (delta - self._delta_prev) / ts, ts, 5.0)
+            self._delta_rate = lowpass(self._delta_rate, (delta - self._delta_prev) / ts, ts, 5.0)
         self._delta_prev = delta
         if fresh:
             if self._vs_prev is not None and t > self._vs_prev[0]:
                 dt = t - self._vs_prev[0]
-                self._vs_rate = _lowpass(self._vs_rate, (vs - self._vs_prev[1]) / dt, dt, cfg.vs_lpf)
+                self._vs_rate = lowpass(self._vs_rate, (vs - self._vs_prev[1]) / dt, dt, cfg.vs_lpf)
             self._vs_prev = (t, vs)
         elif not gps_ok:
             self._vs_prev = None
-        self._ax_lp = _lowpass(self._ax_lp, ax_m, ts, cfg.vs_lpf)
+        self._ax_lp = lowpass(self._ax_lp, ax_m, ts, cfg.vs_lpf)
 
         # ---- sensor offset compensator (eqs 2-7)
         eps = abs(delta) <= cfg.delta_th and abs(self._delta_rate) <= cfg.delta_rate_th      # eq 2
@@ -356,14 +336,14 @@ class Park2018Observer(Estimator):
         r = r_m + self.b_r
         ay = ay_m + self.b_y
         if cfg.roll_compensation:
-            ay = self._roll_compensated(ay)
+            ay = self._roll(ay)
         ax = ax_m + self.b_x
         vw = vw_m + vw_m / v.R_w * self.b_R                                                    # eq 6
         self.yaw_rate = r
 
         # yaw acceleration for the axle forces (eq 19), low-pass filtered
         if self._r_prev is not None:
-            self._r_dot = _lowpass(self._r_dot, (r - self._r_prev) / ts, ts, cfg.yaw_acc_lpf)
+            self._r_dot = lowpass(self._r_dot, (r - self._r_prev) / ts, ts, cfg.yaw_acc_lpf)
         self._r_prev = r
 
         if vw < cfg.v_min:                     # bicycle model singular at v_x -> 0: hold everything

@@ -1,0 +1,66 @@
+"""Reference model of the stability controller (Nguyen 2012 eqs 21-22).
+
+The driver's steering asks for the steady-state sideslip and yaw rate of the linear bicycle
+model (nominal cornering stiffness, :class:`~sideslip.bicycle.BicycleModel`), each through a
+first-order lag.  Eq 22 as printed lacks the ``s`` of its lag (``1 + tau_gamma``); it is the
+lag ``1 / (1 + tau_gamma s)`` like eq 21.
+
+Friction limit: on a road of friction ``mu`` the car cannot turn faster than
+``mu g / v_x`` (``a_y = v_x r <= mu g``), so the yaw-rate target is clipped there; when it
+is, the sideslip target is scaled by the same factor so that the pair stays on the model's
+steady-state line (the bicycle model's ``beta / r`` ratio) instead of asking for the
+sideslip of a turn the road cannot give.
+"""
+from __future__ import annotations
+
+import math
+
+from ..bicycle import BicycleModel
+
+__all__ = ["ReferenceModel", "G"]
+
+G = 9.80665
+"""Standard gravity [m/s2]."""
+
+
+class ReferenceModel:
+    """Sideslip and yaw-rate references from the steering angle (eqs 21-22), friction-limited.
+
+    Parameters
+    ----------
+    model : BicycleModel
+        Nominal linear bicycle model.
+    tau_beta, tau_gamma : float
+        Time constants of the first-order lags [s] (0: no lag).
+    Ts : float
+        Sample period [s] (lags discretised exactly).
+    mu : float
+        Road friction used for the yaw-rate limit [-].
+    """
+
+    def __init__(self, model: BicycleModel, tau_beta: float, tau_gamma: float, Ts: float, mu: float):
+        self.model, self.mu = model, mu
+        self._a_beta = math.exp(-Ts / tau_beta) if tau_beta > 0 else 0.0
+        self._a_gamma = math.exp(-Ts / tau_gamma) if tau_gamma > 0 else 0.0
+        self.reset()
+
+    def reset(self) -> None:
+        """References at zero."""
+        self.beta = self.gamma = 0.0
+
+    def targets(self, delta: float, vx: float) -> tuple[float, float]:
+        """Steady-state ``(beta, gamma)`` targets [rad, rad/s] for steering ``delta`` at ``vx``."""
+        k_beta, k_gamma = self.model.steady_state_gains(vx)          # eqs 21-22 without the lags
+        beta, gamma = k_beta * delta, k_gamma * delta
+        limit = self.mu * G / vx
+        if abs(gamma) > limit:
+            scale = limit / abs(gamma)
+            beta, gamma = beta * scale, gamma * scale
+        return beta, gamma
+
+    def step(self, delta: float, vx: float) -> tuple[float, float]:
+        """Advance the lags by one sample; returns ``(beta_ref, gamma_ref)``."""
+        beta, gamma = self.targets(delta, vx)
+        self.beta = self._a_beta * self.beta + (1.0 - self._a_beta) * beta       # eq 21 lag
+        self.gamma = self._a_gamma * self.gamma + (1.0 - self._a_gamma) * gamma  # eq 22 lag
+        return self.beta, self.gamma

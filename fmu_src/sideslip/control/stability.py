@@ -1,0 +1,81 @@
+"""Estimator + LQR controller in one model: sensor signals in, yaw-moment command out.
+
+The estimator is any of :data:`sideslip.estimators.ESTIMATORS` (named like its FMU), built
+for the same vehicle; its ``beta_hat`` and ``vx_hat`` feed :class:`LqrDycController` with the
+gyro's yaw rate, and the controller's previous command is the estimator's ``Mz_cmd`` input
+(the estimators that model the in-wheel motors' yaw moment, Nguyen 2012 and Pi 2011, need
+it; one sample of delay, as in the separate-FMU closed loop).  An estimator that takes the road
+friction as an input (Park 2018) gets the parameter ``mu`` the reference model uses.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..estimators import ESTIMATORS
+from ..model import Model
+from ..params import build, declared_fields, param
+from ..signals import ESTIMATOR_COMMON_OUTPUTS, SENSOR_OUTPUTS
+from ..vehicles import VehicleParams, load_vehicle
+from .dyc import LqrDycConfig, LqrDycController
+
+__all__ = ["StabilityControllerConfig", "StabilityController", "STABILITY_INPUTS"]
+
+STABILITY_INPUTS = tuple(
+    [s for s in SENSOR_OUTPUTS if any(s in cls.input_names for cls in ESTIMATORS.values())]
+    + sorted({n for cls in ESTIMATORS.values() for n in cls.input_names} - set(SENSOR_OUTPUTS) - {"Mz_cmd", "mu"}))
+"""Every input any estimator needs (sensor order first), except the command and the friction,
+which it gets internally."""
+
+
+@dataclass(frozen=True)
+class StabilityControllerConfig(LqrDycConfig):
+    """:class:`LqrDycConfig` plus the choice of the embedded estimator."""
+
+    estimator: str = param("Park2018Observer", "Dimensionless", "Embedded sideslip estimator (estimator FMU name)",
+                           choices=tuple(sorted(ESTIMATORS)))
+    Ts: float = param(0.0, "Time", "Sample period of the embedded estimator (0: its own default)", ge=0, le=1.0)
+
+
+class StabilityController(Model):
+    """An estimator in front of the LQR direct-yaw-moment controller (see module docstring)."""
+
+    config_class = StabilityControllerConfig
+    input_names = STABILITY_INPUTS
+    output_names = LqrDycController.output_names + ESTIMATOR_COMMON_OUTPUTS
+
+    def __init__(self, config: StabilityControllerConfig | None = None, vehicle: VehicleParams | None = None):
+        self.config = cfg = config or StabilityControllerConfig()
+        self.vehicle = vehicle or load_vehicle(cfg.vehicle, cfg.vehicle_overrides)
+        est_cls = ESTIMATORS[cfg.estimator]
+        names = {f.name for f, _ in declared_fields(est_cls.config_class)}
+        values = {k: getattr(cfg, k) for k in ("vehicle", "vehicle_overrides", "mu") if k in names}
+        if cfg.Ts > 0:
+            values["Ts"] = cfg.Ts
+        self.estimator = est_cls(build(est_cls.config_class, values), vehicle=self.vehicle)
+        self.controller = LqrDycController(LqrDycConfig(**{f.name: getattr(cfg, f.name)
+                                                           for f, _ in declared_fields(LqrDycConfig)}),
+                                           vehicle=self.vehicle)
+        pos = {n: i for i, n in enumerate(self.input_names)}
+        internal = {"Mz_cmd": -1, "mu": -2}      # -1: the last command, -2: the parameter mu
+        self._est_ix = [pos[n] if n in pos else internal[n] for n in self.estimator.input_names]
+        self._ctl_ix = (pos["delta_m"], pos["yaw_rate_m"])
+        self._est_u = [0.0] * len(self._est_ix)
+        self.reset()
+
+    def reset(self) -> None:
+        """Reset estimator and controller."""
+        self._reset_clock()
+        self.estimator.reset()
+        self.controller.reset()
+        self._out = self.controller.outputs() + self.estimator.outputs()[:len(ESTIMATOR_COMMON_OUTPUTS)]
+
+    def step(self, h: float, *u) -> None:
+        """Advance by ``h`` [s] with the sensor signals ``u`` (``input_names`` order)."""
+        self._tick(h)
+        est, ctl, eu = self.estimator, self.controller, self._est_u
+        mz, mu = ctl.Mz, self.config.mu
+        for j, i in enumerate(self._est_ix):
+            eu[j] = u[i] if i >= 0 else (mz if i == -1 else mu)
+        est.step(h, *eu)
+        ctl.step(h, u[self._ctl_ix[0]], est.vx, est.beta, u[self._ctl_ix[1]])
+        self._out = ctl.outputs() + est.outputs()[:len(ESTIMATOR_COMMON_OUTPUTS)]

@@ -1,0 +1,257 @@
+"""Pi, Chen, Wang, Zhang (2011): sideslip observer with a fuzzy nonlinear factor (002_...).
+
+Section 4 of the paper, every block:
+
+1. **Side forces from the sensors** (eqs 23-24): ``F_yfs = (l_r m a_y + I_z dr/dt - M_z)/l``,
+   ``F_yrs = (l_f m a_y - I_z dr/dt + M_z)/l`` with the low-pass-filtered yaw acceleration and
+   the yaw moment of the stability controller ``M_z`` (input ``Mz_cmd``).
+2. **Nonlinear factor** ``alpha`` (eqs 31-32, Tables 1-2): a Mamdani system
+   (:mod:`sideslip.estimators.fuzzy`) on the yaw-rate deviation converted to the sideslip
+   dimension and the lateral acceleration, with the rule base of Table 2.
+3. **Cornering-stiffness identifier** (eqs 33-36) and the **adaptive linear tire model**
+   (eqs 25-28); the **weighted side forces** ``F_y = alpha F_ys + (1 - alpha) F_ym`` (eqs 29-30).
+4. **EKF** on ``[beta, F_yf, F_yr]`` with first-order tire relaxation (eq 37), inputs
+   ``[delta_f, r, v_x]``, measurements ``[F_yf, F_yr, a_y]`` (eq 38), the paper's ``Q`` and ``R``
+   as defaults (eqs 39-47, Joseph-form update of the shared core).
+
+Re-derived or chosen where the paper is garbled or silent (each also marked at its line):
+
+* Signs: with ``alpha_f = beta + l_f r/v_x - delta`` (eq 27) the lateral force is
+  ``F = -C alpha``; eqs 25-26, 35-36 and ``F_yfss = C_f alpha_f`` of eq 37 drop the minus.
+* Eq 37's front relaxation reads ``(-F_yf + F_yfs)``; the text defines ``F_yfss = C_f alpha_f``,
+  used as for the rear axle.  The relaxation is integrated exactly (``exp(-T_s/tau)``).
+* Eqs 33-34 as printed, ``C^ = alpha C + (1 - alpha) C_s``, would use the sensor secant
+  stiffness ``F_ys/alpha`` in the linear region (where ``alpha`` -> 0 makes it ill-conditioned) and
+  the high-friction value at the limit, contrary to the text ("tune the cornering stiffness
+  according to the degree of the vehicle nonlinear state") and to eqs 29-30: we use
+  ``C^ = (1 - alpha) C + alpha C_s``.  ``C_s`` is only formed for ``|alpha_axle| > alpha_min``
+  and is bounded to ``[c_min, 1] C``.
+* Eq 31: ``(1 + (v_x/v_c)^2)`` (the square is lost in print, cf. eq 32); ``v_c`` uses
+  ``l_r/C_f - l_f/C_r``.
+* The membership functions of Figs 4-6 are not in the text; ours (parameters ``dr_*``, ``ay_*``):
+  yaw-rate deviation ZE flat for ``|dr| <= dr_ze`` and zero beyond ``dr_small``, PS/NS peaking
+  at ``dr_small`` and vanishing at ``dr_big``, PB/NB rising from ``dr_small`` to 1 at ``dr_big``;
+  lateral acceleration likewise with ``ay_ze``, ``ay_small``, ``ay_big``; output terms S, M,
+  L, VL as triangles centred at 0, 0.4, 0.7, 1.0 on ``[-0.25, 1.25]`` (so that S alone gives
+  exactly 0 and VL alone exactly 1), clipped to [0, 1].  With these, ``alpha = 0`` while
+  ``|dr| <= dr_ze`` and ``|a_y| <= ay_small``.  The defaults were chosen on the three
+  ``pi2011_*`` roads; the yaw rate in eq 31 is low-pass filtered (``dr_lpf``) so that its
+  noise (0.005 rad/s, about 0.0015 rad of ``dr``) does not wake the nonlinear terms.
+* The tire relaxation length ``RL_y`` is not given: 0.5 m (a passenger-car tire).
+* Roll (addition, ``roll_compensation``): the SUV rolls about 9 deg/g, so a body-fixed
+  accelerometer reads ``g sin(roll)`` (0.7 m/s2 at 0.45 g) on top of the CG acceleration that
+  eqs 23-24 and the ``a_y`` measurement assume; it is removed with the vehicle's roll model
+  (:mod:`sideslip.estimators.roll`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from ..params import check, param
+from .base import Estimator, EstimatorConfig, input_enum, lowpass
+from .fuzzy import Mamdani, Trapezoid
+from .kalman import KalmanFilter
+from .roll import RollCompensator
+
+__all__ = ["Pi2011Config", "Pi2011FuzzyEKF", "St", "pi_f", "pi_F", "pi_h", "pi_H", "nonlinear_factor_system",
+           "TABLE2"]
+
+_WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
+_INF = float("inf")
+
+
+class St(IntEnum):
+    """State of eq 38."""
+    BETA, FYF, FYR = range(3)
+
+
+# ------------------------------------------------------------------------------ the model
+# p = (m, l_f, l_r); u = (delta_f, r, v_x, C_f^, C_r^, e) with e = exp(-T_s / tau)
+
+def pi_f(x, u, p, ts) -> np.ndarray:
+    """Eq 37, one sample: Euler for beta, exact first-order lag for the axle forces."""
+    beta, fyf, fyr = x
+    delta, r, vx, cf, cr, e = u
+    m, lf, lr = p
+    fss_f = -cf * (beta + lf * r / vx - delta)          # eqs 25, 27 (F = -C alpha)
+    fss_r = -cr * (beta - lr * r / vx)                  # eqs 26, 28
+    return np.array([beta + ts * ((fyf * math.cos(delta - beta) + fyr * math.cos(beta)) / (m * vx) - r),
+                     fss_f + (fyf - fss_f) * e,
+                     fss_r + (fyr - fss_r) * e])
+
+
+def pi_F(x, u, p, ts) -> np.ndarray:
+    """Eq 39: Jacobian of :func:`pi_f`."""
+    beta, fyf, fyr = x
+    delta, r, vx, cf, cr, e = u
+    m, _, _ = p
+    mv = m * vx
+    return np.array([
+        [1.0 + ts * (fyf * math.sin(delta - beta) - fyr * math.sin(beta)) / mv, ts * math.cos(delta - beta) / mv,
+         ts * math.cos(beta) / mv],
+        [-cf * (1.0 - e), e, 0.0],
+        [-cr * (1.0 - e), 0.0, e]])
+
+
+def pi_h(x, delta: float, m: float) -> np.ndarray:
+    """Eq 38 measurements: ``[F_yf, F_yr, a_y]`` with ``a_y = (F_yf cos(delta) + F_yr) / m``."""
+    _, fyf, fyr = x
+    return np.array([fyf, fyr, (fyf * math.cos(delta) + fyr) / m])
+
+
+def pi_H(delta: float, m: float) -> np.ndarray:
+    """Eq 40: Jacobian of :func:`pi_h` (constant in the state)."""
+    return np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, math.cos(delta) / m, 1.0 / m]])
+
+
+TABLE2 = {
+    "NB": ("VL", "L", "L", "L", "VL"),
+    "NS": ("L", "L", "M", "L", "L"),
+    "ZE": ("M", "S", "S", "S", "M"),
+    "PS": ("L", "L", "M", "L", "L"),
+    "PB": ("VL", "L", "L", "L", "VL"),
+}
+"""Table 2: yaw-rate deviation term -> output term for lateral acceleration NB, NS, ZE, PS, PB."""
+
+
+def _terms(ze: float, small: float, big: float) -> dict:
+    return {"NB": Trapezoid(-_INF, -_INF, -big, -small), "NS": Trapezoid(-big, -small, -small, -ze),
+            "ZE": Trapezoid(-small, -ze, ze, small), "PS": Trapezoid(ze, small, small, big),
+            "PB": Trapezoid(small, big, _INF, _INF)}
+
+
+def nonlinear_factor_system(dr_ze, dr_small, dr_big, ay_ze, ay_small, ay_big) -> Mamdani:
+    """The Mamdani system of Section 4.2 with the membership functions described in the module docstring."""
+    out = {"S": Trapezoid(-0.25, 0.0, 0.0, 0.25), "M": Trapezoid(0.15, 0.4, 0.4, 0.65),
+           "L": Trapezoid(0.45, 0.7, 0.7, 0.95), "VL": Trapezoid(0.75, 1.0, 1.0, 1.25)}
+    ay_terms = ("NB", "NS", "ZE", "PS", "PB")
+    rules = {(dr, ay): TABLE2[dr][j] for dr in TABLE2 for j, ay in enumerate(ay_terms)}
+    # 601 points: a step of 0.0025 puts 0 and 1 on the grid, so S alone gives exactly 0 and VL exactly 1
+    return Mamdani(_terms(dr_ze, dr_small, dr_big), _terms(ay_ze, ay_small, ay_big), out, rules, (-0.25, 1.25),
+                   points=601)
+
+
+# ------------------------------------------------------------------------------ configuration
+@dataclass(frozen=True)
+class Pi2011Config(EstimatorConfig):
+    """Parameters of :class:`Pi2011FuzzyEKF` (paper values where it gives them)."""
+
+    mu: float = param(1.0, "FrictionCoefficient", "Friction for which the nominal (high-friction) cornering "
+                      "stiffness C_f, C_r of eqs 33-34 is taken", ge=0.05, le=1.5)
+    relaxation_length: float = param(0.5, "Length", "Lateral tire relaxation length RL_y of eq 37", gt=0, le=5)
+    yaw_acc_lpf: float = param(10.0, "Frequency", "Cut-off of the low-pass filter on dr/dt (eqs 23-24)", gt=0,
+                               le=50)
+    dr_lpf: float = param(5.0, "Frequency", "Cut-off of the low-pass filter on the yaw rate of eq 31", gt=0, le=50)
+    q_beta: float = param(1e-13, "Dimensionless", "Q(1,1) [rad2] (paper)", gt=0, le=1)
+    q_force: float = param(100.0, "Dimensionless", "Q(2,2) = Q(3,3) [N2] (paper)", gt=0, le=1e8)
+    r_force: float = param(0.1, "Dimensionless", "R(1,1) = R(2,2) [N2] (paper)", gt=0, le=1e8)
+    r_ay: float = param(0.1, "Dimensionless", "R(3,3) [m2/s4] (paper)", gt=0, le=100)
+    alpha_min: float = param(0.005, "Angle", "Smallest axle slip angle for the secant stiffness of eqs 35-36",
+                             gt=0, le=0.2)
+    c_min: float = param(0.05, "Dimensionless", "Lower bound of C_s as a fraction of C (eqs 35-36)", gt=0, le=1)
+    roll_compensation: bool = param(True, "Dimensionless", "Remove g sin(roll) from a_y with the vehicle's roll "
+                                    "model (an addition, see sideslip.estimators.roll)")
+    dr_ze: float = param(0.001, "Angle", "Yaw-rate deviation: ZE is 1 up to here", ge=0, le=1)
+    dr_small: float = param(0.003, "Angle", "Yaw-rate deviation: PS/NS peak, ZE reaches 0", gt=0, le=1)
+    dr_big: float = param(0.008, "Angle", "Yaw-rate deviation: PB/NB reach 1, PS/NS reach 0", gt=0, le=2)
+    ay_ze: float = param(0.5, "Acceleration", "Lateral acceleration: ZE is 1 up to here", ge=0, le=50)
+    ay_small: float = param(1.5, "Acceleration", "Lateral acceleration: PS/NS peak, ZE reaches 0", gt=0, le=50)
+    ay_big: float = param(3.0, "Acceleration", "Lateral acceleration: PB/NB reach 1", gt=0, le=50)
+
+    def __post_init__(self):
+        check(self)
+        from ..params import ParameterError
+
+        if not self.dr_ze < self.dr_small < self.dr_big:
+            raise ParameterError("dr_small", self.dr_small, f"dr_ze < dr_small < dr_big (dr_ze = {self.dr_ze:g}, "
+                                 f"dr_big = {self.dr_big:g})")
+        if not self.ay_ze < self.ay_small < self.ay_big:
+            raise ParameterError("ay_small", self.ay_small, f"ay_ze < ay_small < ay_big (ay_ze = {self.ay_ze:g}, "
+                                 f"ay_big = {self.ay_big:g})")
+
+
+# ------------------------------------------------------------------------------ the observer
+class Pi2011FuzzyEKF(Estimator):
+    """Pi 2011 fuzzy-weighted EKF (see module docstring)."""
+
+    config_class = Pi2011Config
+    input_names = ("ay_m", "yaw_rate_m", "delta_m", *_WHEELS, "Mz_cmd")
+    extra_outputs = ("nonlinear_factor", "Cf_hat", "Cr_hat", "Fyf_hat", "Fyr_hat")
+    In = input_enum("In", input_names)
+
+    def _init_filter(self):
+        v, cfg = self.vehicle, self.config
+        self._p = (v.m, v.l_f, v.l_r)
+        self._C = v.nominal_cornering_stiffness(cfg.mu)            # C_f, C_r of eqs 33-34 (axle)
+        cf, cr = self._C
+        k_us = v.m * (v.l_r / cf - v.l_f / cr) / v.l                # eq 32 (l_r/C_f - l_f/C_r)
+        self._vc2 = v.l / k_us if k_us > 0 else _INF                # characteristic speed squared
+        self.fuzzy = nonlinear_factor_system(cfg.dr_ze, cfg.dr_small, cfg.dr_big, cfg.ay_ze, cfg.ay_small,
+                                             cfg.ay_big)
+        self.kf = KalmanFilter([0.0, 0.0, 0.0], np.diag([1e-6, 1e4, 1e4]))
+        self._Q = np.diag([cfg.q_beta, cfg.q_force, cfg.q_force])
+        self._R = np.diag([cfg.r_force, cfg.r_force, cfg.r_ay])
+        self._r_prev = None
+        self._r_dot = 0.0
+        self._r_lp = 0.0
+        self._roll = RollCompensator(v, self.Ts) if cfg.roll_compensation else None
+        self.alpha = 0.0
+        self.Cf, self.Cr = self._C
+        self.Fyf = self.Fyr = 0.0
+
+    def _extras(self) -> tuple:
+        return (self.alpha, self.Cf, self.Cr, self.Fyf, self.Fyr)
+
+    def _sample(self, u):
+        I, cfg, v, ts = self.In, self.config, self.vehicle, self.Ts
+        ay, r, delta, mz = u[I.AY_M], u[I.YAW_RATE_M], u[I.DELTA_M], u[I.MZ_CMD]
+        if self._roll is not None:
+            ay = self._roll(ay)
+        vx = self.speed(u)
+        if self._r_prev is not None:
+            self._r_dot = lowpass(self._r_dot, (r - self._r_prev) / ts, ts, cfg.yaw_acc_lpf)
+        self._r_prev = r
+        self._r_lp = lowpass(self._r_lp, r, ts, cfg.dr_lpf)
+        self.vx, self.yaw_rate = vx, r
+        if vx < cfg.v_min:                      # eqs 27-28, 37 divide by v_x: hold
+            self.valid = False
+            return
+        m, lf, lr = self._p
+        l = lf + lr
+        # 1. side forces from the sensors (eqs 23-24)
+        fyf_s = (lr * m * ay + v.I_zz * self._r_dot - mz) / l
+        fyr_s = (lf * m * ay - v.I_zz * self._r_dot + mz) / l
+        # 2. nonlinear factor (eqs 31-32; Mamdani, Table 2)
+        g = 1.0 + vx * vx / self._vc2
+        r_ref = vx * delta / (l * g)                                         # eq 32
+        r_lp = self._r_lp
+        dr = g * (r_ref - r_lp) * l / vx * math.copysign(1.0, r_lp)          # eq 31
+        a = min(max(self.fuzzy.evaluate(dr, ay), 0.0), 1.0)
+        # 3. slip angles of the prior estimate (eqs 27-28), stiffness identifier (eqs 33-36, re-derived)
+        beta = float(self.kf.x[St.BETA])
+        alpha_f = beta + lf * r / vx - delta
+        alpha_r = beta - lr * r / vx
+        cf0, cr0 = self._C
+        cf_s = min(max(-fyf_s / alpha_f, cfg.c_min * cf0), cf0) if abs(alpha_f) > cfg.alpha_min else cf0
+        cr_s = min(max(-fyr_s / alpha_r, cfg.c_min * cr0), cr0) if abs(alpha_r) > cfg.alpha_min else cr0
+        cf = (1.0 - a) * cf0 + a * cf_s
+        cr = (1.0 - a) * cr0 + a * cr_s
+        # adaptive linear tire model (eqs 25-26, F = -C alpha) and the weighted forces (eqs 29-30)
+        fyf = a * fyf_s + (1.0 - a) * (-cf * alpha_f)
+        fyr = a * fyr_s + (1.0 - a) * (-cr * alpha_r)
+        # 4. EKF (eqs 37-47)
+        kf, p = self.kf, self._p
+        uk = (delta, r, vx, cf, cr, math.exp(-ts * vx / cfg.relaxation_length))   # tau = RL_y / v_x
+        xk = kf.x.tolist()
+        kf.predict(pi_f(xk, uk, p, ts), pi_F(xk, uk, p, ts), self._Q)
+        H = pi_H(delta, m)
+        kf.update(np.array([fyf, fyr, ay]) - H.dot(kf.x), H, self._R)
+        self.beta, self.Fyf, self.Fyr = kf.x.tolist()
+        self.alpha, self.Cf, self.Cr = a, cf, cr
+        self.beta_std = kf.std(St.BETA)
+        self.vy = vx * math.tan(self.beta)
+        self.valid = True

@@ -1,0 +1,259 @@
+"""LQR direct-yaw-moment controller: gains, stability, feed-forward, reference, saturation, FMUs."""
+import math
+
+import control
+import numpy as np
+import pytest
+import scipy.linalg
+from fmpy.fmi1 import FMICallException
+
+from sideslip.bicycle import BicycleModel
+from sideslip.control.dyc import LqrDycConfig, LqrDycController, yaw_moment_limit
+from sideslip.control.feedforward import ScheduledFeedforward, feedforward_tf, reference_sideslip, sideslip_responses
+from sideslip.control.lqr import lqr_gains, lqr_row, yaw_moment_model
+from sideslip.control.reference import G, ReferenceModel
+from sideslip.control.stability import StabilityController, StabilityControllerConfig
+from sideslip.cosim.runner import run_library
+from sideslip.cosim.scenarios import get_scenario
+from sideslip.estimators import ESTIMATORS
+from sideslip.params import ParameterError, build
+from sideslip.vehicles import load_vehicle
+
+from conftest import assert_save_restore_repeats, finite
+
+SUV = BicycleModel.from_vehicle(load_vehicle("pi2011_suv"), 0.8, nominal=True)
+DEFAULT = LqrDycConfig()
+
+
+# ------------------------------------------------------------------------------ LQR
+@pytest.mark.parametrize("a,b,q,r", [(-2.0, 0.5, 3.0, 0.1), (1.5, 2.0, 1.0, 4.0), (0.0, 1.0, 9.0, 1.0)])
+def test_lqr_gain_equals_the_analytic_scalar_solution(a, b, q, r):
+    # scalar Riccati 2 a p - p^2 b^2 / r + q = 0  ->  k = b p / r = (a + sqrt(a^2 + b^2 q / r)) / b
+    k = lqr_row(np.array([[a]]), np.array([[b]]), np.array([[q]]), r)
+    assert k[0] == pytest.approx((a + math.sqrt(a * a + b * b * q / r)) / b, rel=1e-12)
+
+
+@pytest.mark.parametrize("vx", [5.0, 12.0, 22.2, 40.0])
+def test_lqr_gains_equal_scipy_riccati_solution(vx):
+    a, b = yaw_moment_model(SUV, vx)
+    q, r = np.diag([DEFAULT.q_beta, DEFAULT.q_gamma]), np.array([[DEFAULT.q_N]])
+    p = scipy.linalg.solve_continuous_are(a, b, q, r)
+    expected = (np.linalg.solve(r, b.T @ p)).ravel()
+    got = lqr_gains(SUV, vx, DEFAULT.q_beta, DEFAULT.q_gamma, DEFAULT.q_N)
+    np.testing.assert_allclose(got, expected, rtol=1e-8)
+
+
+@pytest.mark.parametrize("vehicle", ["pi2011_suv", "park2018_sonata", "nguyen2012_coms", "kim2016_asm"])
+def test_scheduled_gains_stabilise_the_linear_bicycle_over_the_speed_range(vehicle):
+    ctl = LqrDycController(LqrDycConfig(vehicle=vehicle, mu=0.8))
+    worst = -np.inf
+    for vx in np.linspace(DEFAULT.v_min, DEFAULT.v_max, 400):    # between grid points too
+        a, b = yaw_moment_model(ctl.model, vx)
+        k = np.array(ctl.gains(vx))
+        worst = max(worst, np.linalg.eigvals(a - b @ k[None, :]).real.max())
+    assert worst < -0.5                                           # every closed-loop pole well left
+
+
+def test_gain_schedule_interpolation_is_close_to_the_exact_gains():
+    ctl = LqrDycController(LqrDycConfig(mu=0.8))
+    scale = np.abs(ctl.gains.rows).max(axis=0)          # g_beta crosses zero: compare to its range
+    for vx in (6.3, 13.7, 27.1, 51.0):
+        exact = lqr_gains(ctl.model, vx, DEFAULT.q_beta, DEFAULT.q_gamma, DEFAULT.q_N)
+        assert np.all(np.abs(np.subtract(ctl.gains(vx), exact)) <= 0.01 * scale)
+
+
+# ------------------------------------------------------------------------------ feed-forward
+@pytest.mark.parametrize("vx", [8.0, 22.2, 35.0])
+def test_feedforward_inverts_eq_24_in_the_frequency_domain(vx):
+    g11, g12 = sideslip_responses(SUV, vx)
+    gff = feedforward_tf(SUV, vx, DEFAULT.tau_beta, DEFAULT.tau_ff) * control.tf([DEFAULT.tau_ff, 1.0], [1.0])
+    w = np.logspace(-1, 2, 30)
+    closed = (g11 + g12 * gff)(1j * w)
+    target = reference_sideslip(SUV, vx, DEFAULT.tau_beta)(1j * w)
+    np.testing.assert_allclose(closed, target, rtol=1e-8, atol=1e-12)
+
+
+def _feedforward_tracking(tau_ff, feedforward=True):
+    """Max deviation of the linear model's sideslip from G_beta delta, relative to its peak (1 ms)."""
+    vx, ts = 22.2, 1e-3
+    ff = ScheduledFeedforward(SUV, DEFAULT.tau_beta, tau_ff, ts, DEFAULT.v_min, DEFAULT.v_max)
+    a, b = SUV.matrices(vx)
+    ad, bd = scipy.signal.cont2discrete((a, b, np.eye(2), np.zeros((2, 2))), ts)[:2]
+    ref = ReferenceModel(SUV, DEFAULT.tau_beta, 0.0, ts, mu=10.0)     # no friction limit
+    t = np.arange(0, 3.0, ts)
+    x, beta, beta_ref = np.zeros(2), [], []
+    for d in 0.02 * np.sin(2 * np.pi * 0.7 * t) * (t < 1.5):
+        nz = ff.step(d, vx) if feedforward else 0.0
+        x = ad @ x + bd @ np.array([d, nz])
+        beta.append(x[0])
+        beta_ref.append(ref.step(d, vx)[0])
+    beta, beta_ref = np.array(beta), np.array(beta_ref)
+    return np.abs(beta - beta_ref).max() / np.abs(beta_ref).max()
+
+
+def test_feedforward_makes_the_linear_model_follow_the_sideslip_reference():
+    assert _feedforward_tracking(0.02, feedforward=False) > 0.5     # without it the model is far off
+    errors = [_feedforward_tracking(tau) for tau in (0.02, 0.005, 0.001)]
+    assert errors[0] < 0.10 and errors[1] < 0.03 and errors[2] < 0.006   # measured 9.4, 2.3, 0.46 %
+    assert errors[0] > errors[1] > errors[2]                         # exact in the limit tau_ff -> 0
+
+
+import scipy.signal  # noqa: E402  (used above)
+
+
+# ------------------------------------------------------------------------------ reference
+def test_reference_is_the_bicycle_steady_state_and_friction_limited():
+    ref = ReferenceModel(SUV, 0.0, 0.0, 1e-3, mu=0.8)
+    kb, kg = SUV.steady_state_gains(10.0)
+    assert ref.step(0.01, 10.0) == pytest.approx((kb * 0.01, kg * 0.01), rel=1e-12)     # linear range
+    beta, gamma = ref.step(0.2, 20.0)
+    assert gamma == pytest.approx(0.8 * G / 20.0, rel=1e-12)                          # |gamma| <= mu g / vx
+    kb, kg = SUV.steady_state_gains(20.0)
+    assert beta / gamma == pytest.approx(kb / kg, rel=1e-12)                          # on the steady-state line
+    lagged = ReferenceModel(SUV, 0.15, 0.1, 1e-3, mu=0.8)
+    for _ in range(100):
+        lagged.step(0.01, 10.0)
+    assert lagged.gamma == pytest.approx(SUV.steady_state_gains(10.0)[1] * 0.01 * (1 - math.exp(-1.0)), rel=1e-9)
+
+
+# ------------------------------------------------------------------------------ controller
+def test_command_is_saturated_at_the_motor_limit_and_leaves_saturation_at_once():
+    ctl = LqrDycController(LqrDycConfig(mu=0.8))
+    lim = yaw_moment_limit(ctl.vehicle)
+    assert lim == pytest.approx(ctl.vehicle.motor_T_max * ctl.vehicle.t_r / ctl.vehicle.R_w)
+    out = []
+    for k in range(3000):                          # 2 s of a huge error, then none
+        err = 1.0 if k < 2000 else 0.0
+        ctl.step(1e-3, 0.0, 20.0, -err, err)
+        out.append(ctl.outputs()[0])
+    out = np.array(out)
+    assert np.abs(out).max() == pytest.approx(lim) and np.all(np.abs(out) <= lim)
+    assert out[1999] == pytest.approx(-lim)
+    assert abs(out[2000]) < 1e-9                   # no integrator: nothing to unwind
+
+
+def test_no_command_below_v_min_and_none_from_non_finite_inputs():
+    ctl = LqrDycController(LqrDycConfig(mu=0.8))
+    ctl.step(1e-3, 0.1, 3.0, 0.1, 0.5)
+    assert ctl.outputs()[0] == 0.0
+    ctl.step(1e-3, float("nan"), 20.0, 0.1, 0.5)
+    assert ctl.outputs()[0] == 0.0 and finite(ctl.outputs())
+
+
+def test_bad_controller_parameters_name_the_parameter():
+    with pytest.raises(ParameterError, match="'q_N'.*> 0"):
+        build(LqrDycConfig, {"q_N": 0.0})
+    with pytest.raises(ParameterError, match="'v_max'"):
+        build(LqrDycConfig, {"v_min": 20.0, "v_max": 10.0})
+    with pytest.raises(ParameterError, match="'estimator'.*Park2018Observer"):
+        build(StabilityControllerConfig, {"estimator": "Kalman"})
+
+
+def test_stability_controller_equals_estimator_then_controller():
+    res = run_library("park2018_case2", ["Park2018Observer"], duration=8.0)
+    combo = StabilityController(StabilityControllerConfig(vehicle="park2018_sonata", estimator="Park2018Observer",
+                                                          Ts=0.01))
+    est = ESTIMATORS["Park2018Observer"](build(ESTIMATORS["Park2018Observer"].config_class,
+                                               {"vehicle": "park2018_sonata", "Ts": 0.01}))
+    ctl = LqrDycController(LqrDycConfig(vehicle="park2018_sonata"))
+    sig = lambda n: res[f"sensors.{n}"] if f"sensors.{n}" in res else res[f"driver.{n}"]   # noqa: E731
+    for k in range(1, len(res["time"])):
+        mz = ctl.Mz
+        est.step(1e-3, *[mz if n == "Mz_cmd" else (1.0 if n == "mu" else sig(n)[k]) for n in est.input_names])
+        ctl.step(1e-3, sig("delta_m")[k], est.vx, est.beta, sig("yaw_rate_m")[k])
+        combo.step(1e-3, *[sig(n)[k] for n in combo.input_names])
+        assert combo.outputs() == ctl.outputs() + est.outputs()[:6], k
+    assert est.valid and np.abs(ctl.Mz_fb) > 0                     # both parts did something
+
+
+# ------------------------------------------------------------------------------ FMUs
+def _controller_inputs(n=4000):
+    t = np.arange(1, n + 1) * 1e-3
+    delta = 0.05 * np.sin(2 * np.pi * 0.7 * t)
+    return [dict(delta_m=d, vx_hat=20.0 - 2 * tt, beta_hat=-0.3 * d, yaw_rate_m=2.5 * d) for d, tt in zip(delta, t)]
+
+
+def test_controller_fmu_equals_library_and_save_restore_continues(harness):
+    inputs = _controller_inputs()
+    lib = LqrDycController(LqrDycConfig(mu=0.8))
+    fmu = harness("LqrDycController")
+    fmu.init(mu=0.8)
+    for k, u in enumerate(inputs[:2500]):
+        lib.step(1e-3, *[u[n] for n in lib.input_names])
+        fmu.step(**u)
+        assert fmu.outputs() == list(lib.outputs()), k
+
+    def drive():
+        out = []
+        for u in inputs[2500:3500]:
+            fmu.step(**u)
+            out.append(fmu.outputs())
+        return out
+
+    assert_save_restore_repeats(fmu, drive)
+
+
+def test_stability_controller_fmu_equals_library(harness):
+    res = run_library("nguyen2012_cornering", [], duration=4.0)
+    cfg = dict(vehicle="nguyen2012_coms", estimator="Nguyen2012DACMRKF", Ts=0.001, mu=0.8)
+    lib = StabilityController(StabilityControllerConfig(**cfg))
+    fmu = harness("StabilityController")
+    fmu.init(**cfg)
+    for k in range(1, len(res["time"])):
+        u = {n: res[f"sensors.{n}"][k] for n in lib.input_names}
+        lib.step(1e-3, *u.values())
+        fmu.step(**u)
+        assert fmu.outputs() == list(lib.outputs()), k
+    assert lib.outputs()[lib.output_names.index("valid")] == 1.0
+
+
+def test_controller_fmu_bad_parameter_is_fmi2error_naming_it(harness):
+    fmu = harness("StabilityController")
+    fmu.fmu.setupExperiment(startTime=0.0)
+    fmu.fmu.enterInitializationMode()
+    fmu.set(tau_ff=0.0)
+    with pytest.raises(FMICallException):
+        fmu.fmu.exitInitializationMode()
+    assert any("parameter 'tau_ff'" in m and "(0, 1] s" in m for s, m in fmu.messages if s == 3)
+
+
+# ------------------------------------------------------------------------------ evaluation helpers and wiring
+def test_fmvss126_metrics_on_a_synthetic_run():
+    from sideslip.cosim.control_eval import fmvss126_metrics
+    t = np.arange(0, 8.0, 1e-3)
+    t_bos, t_cos = 1.0, 1.0 + 1 / 0.7 + 0.5
+    dsw = np.where((t > t_bos) & (t < t_bos + 0.714), 1.0, np.where((t >= t_bos + 0.714) & (t < t_cos), -1.0, 0.0))
+    r = np.where(t < t_cos, -0.4 * (t > t_bos + 0.5), -0.4 * np.exp(-(t - t_cos) / 0.5))   # peak -0.4, decays
+    a = {"time": t, "plant.yaw_rate": r, "driver.delta_sw": dsw, "plant.X": 20.0 * t, "plant.Y": 2.0 * (t - t_bos) *
+         (t > t_bos), "plant.yaw": np.zeros_like(t)}
+    m = fmvss126_metrics(a, t_bos, t_cos, 5.0)
+    assert m["yaw_rate_ratio_1s"] == pytest.approx(math.exp(-2.0), rel=1e-3)
+    assert m["yaw_rate_ratio_1p75s"] == pytest.approx(math.exp(-3.5), rel=1e-3)
+    assert m["lateral_1p07s"] == pytest.approx(2.14, rel=1e-3) and m["pass"]
+    a["plant.Y"] = a["plant.Y"] * 0.5                                            # 1.07 m: not responsive
+    assert not fmvss126_metrics(a, t_bos, t_cos, 5.0)["responsive"]
+    assert fmvss126_metrics(a, t_bos, t_cos, 4.5)["responsive"]                  # criterion applies from 5A
+    a["plant.Y"] = a["plant.Y"] * 2.0
+    a["driver.delta_sw"] = np.where(t <= t_bos, -0.002, dsw)                    # a driver's trim before the steer
+    assert fmvss126_metrics(a, t_bos, t_cos, 5.0)["lateral_1p07s"] == pytest.approx(2.14, rel=1e-3)
+
+
+def test_runner_feeds_the_controller_truth_or_an_estimator_and_its_command_to_the_plant(fmu_dir):
+    from sideslip.cosim.runner import run_scenario, scenario_components
+    sc = get_scenario("nguyen2012_cornering")
+    _, conns = scenario_components(sc, [], "LqrDycController")
+    assert set(conns) == {("plant.beta", "controller.beta_hat"), ("plant.vx", "controller.vx_hat")}
+    _, conns = scenario_components(sc, ["Park2018Observer", "Kim2016SteeringEKF"], "LqrDycController",
+                                   control_source="Kim2016SteeringEKF")
+    assert ("Kim2016SteeringEKF.beta_hat", "controller.beta_hat") in conns
+    with pytest.raises(KeyError, match="control source"):
+        scenario_components(sc, ["Park2018Observer"], "LqrDycController", control_source="Kim2016SteeringEKF")
+    run = run_scenario(sc, ["Nguyen2012DACMRKF"], "StabilityController", duration=8.0, fmu_dir=fmu_dir,
+                       params={"controller.estimator": "Nguyen2012DACMRKF", "controller.Ts": 0.001,
+                               "controller.mu": 0.8})
+    res = run.results
+    assert run.metrics["unconnected_inputs"] == []
+    assert np.abs(res["controller.Mz_cmd"]).max() > 10.0                        # it acted, through the plant
+    np.testing.assert_allclose(res["plant.Mz_act"][-1], res["controller.Mz_cmd"][-2], rtol=0.05, atol=2.0)
+    # the embedded Nguyen filter sees what the separate one sees (same inputs, same command)
+    np.testing.assert_allclose(res["controller.beta_hat"], res["Nguyen2012DACMRKF.beta_hat"], atol=1e-12)
