@@ -5,6 +5,7 @@ import control
 import numpy as np
 import pytest
 import scipy.linalg
+import scipy.signal
 from fmpy.fmi1 import FMICallException
 
 from sideslip.bicycle import BicycleModel
@@ -96,9 +97,6 @@ def test_feedforward_makes_the_linear_model_follow_the_sideslip_reference():
     errors = [_feedforward_tracking(tau) for tau in (0.02, 0.005, 0.001)]
     assert errors[0] < 0.10 and errors[1] < 0.03 and errors[2] < 0.006   # measured 9.4, 2.3, 0.46 %
     assert errors[0] > errors[1] > errors[2]                         # exact in the limit tau_ff -> 0
-
-
-import scipy.signal  # noqa: E402  (used above)
 
 
 # ------------------------------------------------------------------------------ reference

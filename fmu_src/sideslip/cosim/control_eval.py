@@ -29,13 +29,12 @@ from ..vehicles import load_vehicle
 from ..plant.maneuvers import parse_maneuver
 from .paper_tables import run_jobs
 from .runner import run_scenario
-from .scenarios import get_scenario
+from .scenarios import FMVSS_FACTORS, get_scenario
 
 __all__ = ["TUNING_MANEUVERS", "evaluate_weights", "steer_times", "FMVSS_FACTORS", "fmvss126_metrics", "control_metrics", "control_evaluation", "format_control_evaluation",
            "scenario_mu", "CONTROLLER"]
 
 CONTROLLER = "LqrDycController"
-FMVSS_FACTORS = tuple(1.5 + 0.5 * i for i in range(11))
 FMVSS_FAMILY = "fmvss126_suv_mu08"
 OTHER_SCENARIOS = ("park2018_case5", "nguyen2012_cornering")
 _FIELDS = ("plant.yaw_rate", "plant.beta", "plant.vx", "plant.X", "plant.Y", "plant.yaw", "plant.Mz_act",
@@ -43,10 +42,11 @@ _FIELDS = ("plant.yaw_rate", "plant.beta", "plant.vx", "plant.X", "plant.Y", "pl
 _DEG = 180.0 / math.pi
 
 
-def steer_times(scenario) -> tuple[float, float]:
-    """Beginning and completion of steer [s] of a sine-with-dwell scenario."""
+def steer_times(scenario) -> tuple[float, float, float]:
+    """Beginning of steer, completion of steer [s] and sine frequency [Hz] of a sine-with-dwell scenario
+    (from its maneuver, so that overrides such as ``maneuver_t_start`` are followed)."""
     man = parse_maneuver(scenario.maneuver)
-    return man.t_start, man.completion_of_steer
+    return man.t_start, man.completion_of_steer, man.frequency
 
 
 def scenario_mu(scenario) -> float:
@@ -54,7 +54,7 @@ def scenario_mu(scenario) -> float:
     return float(scenario.hints.get("mu", scenario.road_mu))
 
 
-def fmvss126_metrics(a: dict, t_bos: float, t_cos: float, factor: float) -> dict:
+def fmvss126_metrics(a: dict, t_bos: float, t_cos: float, factor: float, frequency: float = 0.7) -> dict:
     """FMVSS 126 yaw-stability and responsiveness measures of one sine-with-dwell run.
 
     Parameters
@@ -66,12 +66,14 @@ def fmvss126_metrics(a: dict, t_bos: float, t_cos: float, factor: float) -> dict
         Beginning and completion of steer [s].
     factor : float
         Amplitude in multiples of A (the displacement criterion applies from 5A).
+    frequency : float
+        Frequency of the sine [Hz] (0.7 in S7.7).
     """
     t, r, dsw = a["time"], a["plant.yaw_rate"], a["driver.delta_sw"]
     i_bos, i_cos = np.searchsorted(t, t_bos), np.searchsorted(t, t_cos)
-    # direction of the first half-wave: handwheel at its first peak (a quarter of the 0.7 Hz period)
-    # against the handwheel at the beginning of steer (the driver may hold a small trim before it)
-    first = np.sign(np.interp(t_bos + 0.25 / 0.7, t, dsw) - np.interp(t_bos, t, dsw))
+    # direction of the first half-wave: handwheel at its first peak (a quarter period after the
+    # beginning of steer) against the handwheel at the beginning (the driver may hold a small trim)
+    first = np.sign(np.interp(t_bos + 0.25 / frequency, t, dsw) - np.interp(t_bos, t, dsw))
     i_rev = i_bos + int(np.argmax(np.sign(dsw[i_bos:i_cos]) == -first))   # steering wheel changes sign
     window = r[i_rev:i_cos + 1]
     peak = float(window[np.argmax(np.abs(window))])
@@ -151,7 +153,8 @@ def control_evaluation(fmu_dir=DEFAULT_OUT, workers: int = 2, sources=None, fact
             row["beta_hat_rms_deg"] = metrics["estimators"][src].get("beta_hat", {}).get("rms", float("nan"))
         if name in fmvss:
             factor = float(name.split("_a")[-1].split("_")[0])
-            row.update(fmvss126_metrics(arrays, *steer_times(sc), factor))
+            t_bos, t_cos, freq = steer_times(sc)
+            row.update(fmvss126_metrics(arrays, t_bos, t_cos, factor, freq))
             fam = table.setdefault(FMVSS_FAMILY, {}).setdefault(src, {"runs": {}})
             fam["runs"][name] = row
         else:
@@ -239,9 +242,9 @@ def evaluate_weights(item: dict) -> dict:
                            fmu_dir=item.get("fmu_dir", DEFAULT_OUT), params={**params, "controller.mu": scenario_mu(sc)})
         a = {f: np.asarray(run.results[f], dtype=float) for f in ("time", *_FIELDS)}
         rows.append(control_metrics(a, sc.vehicle, scenario_mu(sc)))
-        t_bos, t_cos = steer_times(sc)
+        t_bos, t_cos, freq = steer_times(sc)
         if t_cos + 1.75 <= sc.duration:
-            passes.append(fmvss126_metrics(a, t_bos, t_cos, 0.0)["yaw_stable"])
+            passes.append(fmvss126_metrics(a, t_bos, t_cos, 0.0, freq)["yaw_stable"])
         sim += sc.duration
     out = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}
     out.update(fmvss_passes=int(sum(passes)), sim_seconds=sim, wall_seconds=time.perf_counter() - t0)

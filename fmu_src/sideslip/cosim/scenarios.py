@@ -18,7 +18,7 @@ from ..plant.maneuvers import maneuver_spec as _spec
 from ..plant.maneuvers import parse_maneuver
 from ..vehicles import GRAVITY
 
-__all__ = ["Scenario", "SCENARIOS", "get_scenario", "scenario_names", "fmvss126_reference_angle"]
+__all__ = ["FMVSS_FACTORS", "Scenario", "SCENARIOS", "get_scenario", "scenario_names", "fmvss126_reference_angle"]
 
 _DEG = math.pi / 180.0
 _KMH = 1.0 / 3.6
@@ -347,15 +347,16 @@ def _fmvss(surface: str, factor: float | None, direction: float) -> Scenario:
     return Scenario(f"fmvss126_suv_mu{surface}_a{factor:.1f}{side}",
                     f"FMVSS 126 sine with dwell {factor:.1f}A, SUV, mu {mu}", "FMVSS 126 S7.7", "pi2011_suv",
                     spec, 8.0, road_mu=f"{mu}", sensors=_FMVSS_SENSORS, notes=_FMVSS_NOTE,
-                    hints={"completion_of_steer": 3.0 + 1 / 0.7 + 0.5, "beginning_of_steer": 3.0, "mu": mu})
+                    hints={"mu": mu})
 
 
-_FMVSS_FACTORS = tuple(1.5 + 0.5 * i for i in range(11))
+FMVSS_FACTORS = tuple(1.5 + 0.5 * i for i in range(11))
+"""FMVSS 126 sine-with-dwell amplitudes in multiples of A (S7.7: 1.5A to 6.5A in 0.5A steps)."""
 _LAZY = {}
 for _surface in _FMVSS_MU:
     for _s, _d in (("", 1.0), ("_right", -1.0)):
         _LAZY[f"fmvss126_suv_mu{_surface}_sis{_s}"] = (_surface, None, _d)
-        _LAZY.update({f"fmvss126_suv_mu{_surface}_a{f:.1f}{_s}": (_surface, f, _d) for f in _FMVSS_FACTORS})
+        _LAZY.update({f"fmvss126_suv_mu{_surface}_a{f:.1f}{_s}": (_surface, f, _d) for f in FMVSS_FACTORS})
 
 
 def scenario_names() -> list[str]:
