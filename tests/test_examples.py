@@ -1,4 +1,5 @@
 """Every example runs (short durations) and returns sensible results."""
+import functools
 import importlib.util
 from pathlib import Path
 
@@ -81,3 +82,15 @@ def test_tune_estimator_improves_the_training_objective(fmu_dir):
     assert out["evaluations"] >= 2
     assert out["after"]["pi2011_high"] <= out["before"]["pi2011_high"]
     assert set(out["after"]) == {"pi2011_high", "pi2011_medium"}
+
+
+def test_compare_masters(tmp_path, fmu_dir, monkeypatch):
+    pytest.importorskip("libcosimpy")
+    module = load("compare_masters")
+    monkeypatch.setattr(module, "run_scenario", functools.partial(module.run_scenario, fmu_dir=fmu_dir))
+    monkeypatch.setattr(module, "run_libcosim", functools.partial(module.run_libcosim, fmu_dir=fmu_dir))
+    monkeypatch.setattr(module, "export_ssp", functools.partial(module.export_ssp, fmu_dir=fmu_dir))
+    out = module.run(duration=0.5, out_dir=tmp_path)
+    assert out["libcosim vs fmpy (jacobi)"]["max_scaled"] <= 1e-9
+    assert out["libcosim on SSP vs fmpy (jacobi)"]["max_scaled"] <= 1e-9
+    assert out["ssp"].is_file()

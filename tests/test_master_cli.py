@@ -165,7 +165,7 @@ def test_cli_bench_json(fmu_dir):
                                            ("yes", True)])
 def test_boolean_parameters_given_as_text_mean_what_they_say(fmu_dir, text, expected):
     with CoSimulation([Component("Kim2016SteeringEKF", "kim", {"fault_latch": text})], fmu_dir=fmu_dir) as sim:
-        inst = sim._by_name["kim"]
+        (inst,) = sim._instances
         var = inst.vars["fault_latch"]
         assert inst.slave.getBoolean([var.valueReference]) == [expected]
 

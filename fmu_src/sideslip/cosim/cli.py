@@ -1,9 +1,10 @@
-"""Command line: ``python -m sideslip {list,run,demo,bench,paper,build,fmu-tables}``.
+"""Command line: ``python -m sideslip {list,run,demo,bench,paper,control,export-ssp,build,fmu-tables}``.
 
 ``run`` writes ``DIR/results.csv``, ``DIR/metrics.json`` and ``DIR/sideslip.png`` and prints
 a metrics table; ``demo`` is ``run`` on a default scenario with every registered estimator;
 ``bench`` prints microseconds per communication step per FMU and the closed-loop real-time
-factor; ``paper`` reproduces a paper's result tables with the FMUs.  FMUs are built on first
+factor; ``paper`` reproduces a paper's result tables with the FMUs; ``export-ssp`` writes a
+scenario's closed loop as an SSP 1.0 package; ``run --master libcosim`` runs it with libcosim.  FMUs are built on first
 use (``build/fmus``).
 """
 from __future__ import annotations
@@ -62,7 +63,8 @@ def _run(args, estimators, out_dir) -> int:
                        step=args.step, record_every=args.record_every, fmu_dir=args.fmu_dir,
                        params=_kv(args.param, "--param"), overrides=_kv(args.set, "--set"),
                        control_source=getattr(args, "control_source", None),
-                       progress=progress if sys.stderr.isatty() else None)
+                       progress=progress if sys.stderr.isatty() else None,
+                       master=getattr(args, "master", "fmpy"), scheme=getattr(args, "scheme", "gauss-seidel"))
     print("", file=sys.stderr)
     m = run.metrics
     s = m["summary"]
@@ -151,6 +153,17 @@ def _cmd_build(args) -> int:
     return 0
 
 
+def _cmd_export_ssp(args) -> int:
+    from .ssp import export_ssp
+
+    controller = None if args.controller in (None, "none") else args.controller
+    out = export_ssp(args.out, args.scenario, args.estimator or (), controller, params=_kv(args.param, "--param"),
+                     control_source=args.control_source, overrides=_kv(args.set, "--set"),
+                     duration=args.duration, step=args.step, fmu_dir=args.fmu_dir)
+    print(f"wrote {out}")
+    return 0
+
+
 def _cmd_control(args) -> int:
     from . import control_eval as ce
 
@@ -184,6 +197,10 @@ def main(argv=None) -> int:
         sp.add_argument("--set", action="append", metavar="KEY=VALUE",
                         help="scenario override: duration, road_mu, maneuver_<key>, sensor_<key>, ...")
         sp.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE", help="FMU parameter override")
+        sp.add_argument("--master", choices=("fmpy", "libcosim"), default="fmpy",
+                        help="co-simulation master (libcosim: pip install libcosimpy; Jacobi)")
+        sp.add_argument("--scheme", choices=("gauss-seidel", "jacobi"), default="gauss-seidel",
+                        help="coupling scheme of the fmpy master")
 
     run = sub.add_parser("run", help="run a scenario in closed loop")
     run_args(run, True)
@@ -212,13 +229,23 @@ def main(argv=None) -> int:
     ctl.add_argument("--workers", type=int, default=2)
     ctl.add_argument("--json", action="store_true")
     sub.add_parser("fmu-tables", help="markdown I/O tables of the FMUs (as in the README)")
+    ssp = sub.add_parser("export-ssp", help="write a scenario's closed loop as an SSP 1.0 package (FMUs inside)")
+    ssp.add_argument("out", metavar="OUT.ssp", help="the package to write")
+    ssp.add_argument("--scenario", required=True, help="scenario name (see list)")
+    ssp.add_argument("--estimator", action="append", help="estimator FMU (repeatable)")
+    ssp.add_argument("--controller", default="none", help="controller FMU or 'none'")
+    ssp.add_argument("--control-source", help="estimator instance or 'truth' feeding the controller")
+    ssp.add_argument("--duration", type=float, help="DefaultExperiment stop time [s] (default: the scenario's)")
+    ssp.add_argument("--step", type=float, default=1e-3, help="fixed communication step [s] (default 1e-3)")
+    ssp.add_argument("--set", action="append", metavar="KEY=VALUE", help="scenario override")
+    ssp.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE", help="FMU parameter override")
     build = sub.add_parser("build", help="build the FMUs")
     build.add_argument("names", nargs="*")
     build.add_argument("--force", action="store_true")
     args = p.parse_args(argv)
     try:
         return {"list": _cmd_list, "run": _cmd_run, "demo": _cmd_demo, "bench": _cmd_bench, "paper": _cmd_paper,
-                "control": _cmd_control, "build": _cmd_build, "fmu-tables": _cmd_fmu_tables}[args.cmd](args)
+                "control": _cmd_control, "build": _cmd_build, "export-ssp": _cmd_export_ssp, "fmu-tables": _cmd_fmu_tables}[args.cmd](args)
     except (KeyError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

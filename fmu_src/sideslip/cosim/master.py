@@ -4,9 +4,12 @@
   component (plus the alias ``Mz_cmd -> Mz_dyc``); explicit ``connections`` override and
   resolve ambiguity (e.g. which estimator feeds the controller).  Unconnected inputs keep
   their start values and are listed in the run metadata.
-* Gauss-Seidel in component order: each component gets the latest outputs of all others
-  before its ``doStep``; with the order driver, plant, sensors, estimators, controller the
-  sensors see the plant at the end of the step, the controller acts on the next one.
+* Gauss-Seidel in component order (default): each component gets the latest outputs of
+  all others before its ``doStep``; with the order driver, plant, sensors, estimators,
+  controller the sensors see the plant at the end of the step, the controller acts on the
+  next one.  ``scheme="jacobi"``: every component gets the outputs of the previous
+  communication point, then all step (the scheme of libcosim's fixed-step algorithm, see
+  :mod:`sideslip.cosim.libcosim_master`).
 * Lean loop: value references resolved once, one preallocated buffer for all outputs,
   batched ``fmi2GetReal``/``fmi2SetReal`` per component, raw ctypes calls (GIL held, so
   pythonfmu's GIL round trip is a no-op), no per-step allocation.
@@ -34,12 +37,14 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
 from ..fmi.build import DEFAULT_OUT, ensure_fmus
 from ..params import parse_bool
 
-__all__ = ["Component", "CoSimulation", "Results", "MasterError", "INPUT_ALIASES"]
+__all__ = ["Component", "CoSimulation", "Results", "MasterError", "INPUT_ALIASES", "SCHEMES", "Interface",
+           "interface_of", "resolve_connections", "fmu_paths"]
 
 INPUT_ALIASES = {"Mz_dyc": ("Mz_cmd",)}
 """Input name -> output names that feed it besides the equal name (DESIGN.md renames)."""
 
 _STATUS = ("ok", "warning", "discard", "error", "fatal", "pending")
+SCHEMES = ("gauss-seidel", "jacobi")
 
 
 class MasterError(RuntimeError):
@@ -67,6 +72,94 @@ class Component:
     def __post_init__(self):
         if self.name is None:
             self.name = Path(self.fmu).stem
+
+
+# ---------------------------------------------------------------------------------------- wiring
+@dataclass(frozen=True)
+class Interface:
+    """The ports of one instance: Real and Boolean outputs, inputs by name -> type."""
+
+    name: str
+    outputs_real: tuple
+    outputs_bool: tuple
+    inputs: dict
+
+
+def interface_of(name: str, md) -> Interface:
+    """Ports of instance ``name`` from an fmpy model description."""
+    outs = [v for v in md.modelVariables if v.causality == "output"]
+    return Interface(name, tuple(v.name for v in outs if v.type == "Real"),
+                     tuple(v.name for v in outs if v.type == "Boolean"),
+                     {v.name: v.type for v in md.modelVariables if v.causality == "input"})
+
+
+def resolve_connections(interfaces, explicit=()):
+    """Source of every input (see module docstring), shared by every master and the SSP export.
+
+    Parameters
+    ----------
+    interfaces : list of Interface
+        In component order.
+    explicit : iterable of (str, str)
+        ``("src_instance.output", "dst_instance.input")`` pairs overriding the match by name.
+
+    Returns
+    -------
+    links : dict
+        ``(instance, input) -> (source instance, output, "Real" | "Boolean")`` in component order.
+    unconnected : list of str
+        ``instance.input`` with no source (they keep their start values).
+
+    Raises
+    ------
+    MasterError
+        Unknown instance or port, ambiguous source, or a type mismatch.
+    """
+    by_name = {i.name: i for i in interfaces}
+    providers: dict[str, list] = {}
+    for itf in interfaces:
+        for name in itf.outputs_real:
+            providers.setdefault(name, []).append((itf.name, name, "Real"))
+        for name in itf.outputs_bool:
+            providers.setdefault(name, []).append((itf.name, name, "Boolean"))
+    chosen = {}
+    for src, dst in explicit:
+        si, _, so = src.partition(".")
+        di, _, dn = dst.partition(".")
+        src_itf, dst_itf = by_name.get(si), by_name.get(di)
+        if src_itf is None or dst_itf is None:
+            raise MasterError(f"connection {src} -> {dst}: unknown instance (known: {', '.join(by_name)})")
+        if so not in src_itf.outputs_real + src_itf.outputs_bool:
+            raise MasterError(f"connection {src} -> {dst}: {si} has no output {so!r}")
+        if dn not in dst_itf.inputs:
+            raise MasterError(f"connection {src} -> {dst}: {di} has no input {dn!r}")
+        chosen[(di, dn)] = (si, so, "Real" if so in src_itf.outputs_real else "Boolean")
+    links, unconnected = {}, []
+    for itf in interfaces:
+        for name, kind in itf.inputs.items():
+            if (itf.name, name) in chosen:
+                src = chosen[(itf.name, name)]
+            else:
+                cands = [p for alias in (name, *INPUT_ALIASES.get(name, ())) for p in providers.get(alias, [])
+                         if p[0] != itf.name]
+                if not cands:
+                    unconnected.append(f"{itf.name}.{name}")
+                    continue
+                if len(cands) > 1:
+                    opts = ", ".join(f"{i}.{o}" for i, o, _ in cands)
+                    raise MasterError(f"{itf.name}.{name} could come from {opts}: add an explicit connection")
+                src = cands[0]
+            if src[2] != kind:
+                raise MasterError(f"{src[0]}.{src[1]} ({src[2]}) cannot feed {itf.name}.{name} ({kind})")
+            links[(itf.name, name)] = src
+    return links, unconnected
+
+
+def fmu_paths(components, fmu_dir: str | Path = DEFAULT_OUT) -> dict[str, Path]:
+    """FMU file of every component by instance name (registry names built/rebuilt on demand)."""
+    by_name = [c.fmu for c in components if not str(c.fmu).endswith(".fmu")]
+    paths = ensure_fmus(sorted(set(by_name)), fmu_dir) if by_name else {}
+    return {c.name: Path(c.fmu) if str(c.fmu).endswith(".fmu") else paths[c.fmu] for c in components}
 
 
 # ---------------------------------------------------------------------------------------- extraction
@@ -198,12 +291,17 @@ class CoSimulation:
         Record every n-th step (1 = every step).
     fmu_dir : path
         Folder of the built FMUs (built/rebuilt on first use when names are given).
+    scheme : {"gauss-seidel", "jacobi"}
+        Coupling scheme (module docstring).
     """
 
     def __init__(self, components, connections=(), step: float = 1e-3, record_every: int = 1,
-                 fmu_dir: str | Path = DEFAULT_OUT):
+                 fmu_dir: str | Path = DEFAULT_OUT, scheme: str = "gauss-seidel"):
         if not step > 0:
             raise MasterError(f"step must be > 0, got {step}")
+        if scheme not in SCHEMES:
+            raise MasterError(f"scheme must be one of {', '.join(SCHEMES)}, got {scheme!r}")
+        self.scheme = scheme
         if record_every < 1:
             raise MasterError(f"record_every must be >= 1, got {record_every}")
         self.components = list(components)
@@ -218,65 +316,18 @@ class CoSimulation:
         self._open = False
 
     # ---------------------------------------------------------------- setup
-    def _fmu_paths(self) -> dict[str, Path]:
-        by_name = [c.fmu for c in self.components if not str(c.fmu).endswith(".fmu")]
-        paths = ensure_fmus(sorted(set(by_name)), self.fmu_dir) if by_name else {}
-        out = {}
-        for c in self.components:
-            out[c.name] = Path(c.fmu) if str(c.fmu).endswith(".fmu") else paths[c.fmu]
-        return out
-
     def _connect(self):
-        """Resolve every input to a source ``(instance, output, kind)`` or leave it unconnected."""
-        providers: dict[str, list] = {}
-        for inst in self._instances:
-            for name in inst.outputs_real:
-                providers.setdefault(name, []).append((inst.name, name, "Real"))
-            for name in inst.outputs_bool:
-                providers.setdefault(name, []).append((inst.name, name, "Boolean"))
-        explicit = {}
-        for src, dst in self.explicit:
-            si, _, so = src.partition(".")
-            di, _, dn = dst.partition(".")
-            src_inst = self._by_name.get(si)
-            dst_inst = self._by_name.get(di)
-            if src_inst is None or dst_inst is None:
-                raise MasterError(f"connection {src} -> {dst}: unknown instance (known: {', '.join(self._by_name)})")
-            if so not in src_inst.outputs_real + src_inst.outputs_bool:
-                raise MasterError(f"connection {src} -> {dst}: {si} has no output {so!r}")
-            if dn not in dst_inst.inputs:
-                raise MasterError(f"connection {src} -> {dst}: {di} has no input {dn!r}")
-            explicit[(di, dn)] = (si, so, "Real" if so in src_inst.outputs_real else "Boolean")
-        links, unconnected = {}, []
-        for inst in self._instances:
-            for name, var in inst.inputs.items():
-                if (inst.name, name) in explicit:
-                    src = explicit[(inst.name, name)]
-                else:
-                    cands = [p for alias in (name, *INPUT_ALIASES.get(name, ())) for p in providers.get(alias, [])
-                             if p[0] != inst.name]
-                    if not cands:
-                        unconnected.append(f"{inst.name}.{name}")
-                        continue
-                    if len(cands) > 1:
-                        opts = ", ".join(f"{i}.{o}" for i, o, _ in cands)
-                        raise MasterError(f"{inst.name}.{name} could come from {opts}: add an explicit connection")
-                    src = cands[0]
-                if src[2] != var.type:
-                    raise MasterError(f"{src[0]}.{src[1]} ({src[2]}) cannot feed {inst.name}.{name} ({var.type})")
-                links[(inst.name, name)] = src
-        return links, unconnected
+        return resolve_connections([interface_of(i.name, i.md) for i in self._instances], self.explicit)
 
     def setup(self) -> None:
         """Build (if needed), load, instantiate, parameterise and initialise every FMU."""
-        paths = self._fmu_paths()
+        paths = fmu_paths(self.components, self.fmu_dir)
         try:
             for comp in self.components:
                 inst = _Instance(comp, paths[comp.name], self.messages)
                 inst.instantiate()
                 self._instances.append(inst)
             self._open = True
-            self._by_name = {i.name: i for i in self._instances}
             for inst, comp in zip(self._instances, self.components):
                 inst.set_parameters(comp.parameters)
             self.links, self.unconnected = self._connect()
@@ -400,18 +451,30 @@ class CoSimulation:
         spent = np.zeros((n // block + 1, len(plan)))
         wall0 = time.perf_counter()
         k_rec = 1
+        jacobi = self.scheme == "jacobi"
         for k in range(n):
             t = k * h
             c_t = c_double(t)
+            if jacobi:                 # everyone reads the outputs of t_k before anyone steps
+                for (inst, comp, do_step, n_ir, set_r, vr_ir, p_ir, src_ir, u_r, n_ib, set_b, vr_ib, p_ib, src_ib,
+                     u_b, *_outs) in plan:
+                    if n_ir:
+                        take(Y, src_ir, out=u_r)
+                        if set_r(comp, vr_ir, n_ir, p_ir) > 1:
+                            inst.check(2, "fmi2SetReal", t)
+                    if n_ib:
+                        take(B, src_ib, out=u_b)
+                        if set_b(comp, vr_ib, n_ib, p_ib) > 1:
+                            inst.check(2, "fmi2SetBoolean", t)
             for j, (inst, comp, do_step, n_ir, set_r, vr_ir, p_ir, src_ir, u_r, n_ib, set_b, vr_ib, p_ib, src_ib, u_b,
                     n_or, get_r, vr_or, p_or, n_ob, get_b, vr_ob, p_ob) in enumerate(plan):
                 if clock:
                     t_a = clock()
-                if n_ir:
+                if n_ir and not jacobi:
                     take(Y, src_ir, out=u_r)
                     if set_r(comp, vr_ir, n_ir, p_ir) > 1:
                         inst.check(2, "fmi2SetReal", t)
-                if n_ib:
+                if n_ib and not jacobi:
                     take(B, src_ib, out=u_b)
                     if set_b(comp, vr_ib, n_ib, p_ib) > 1:
                         inst.check(2, "fmi2SetBoolean", t)
@@ -438,7 +501,7 @@ class CoSimulation:
             data[nm] = rec_r[:k_rec, i]
         for i, nm in enumerate(self.bool_names):
             data[nm] = rec_b[:k_rec, i] != 0
-        meta = {"step": h, "duration": n * h, "steps": n, "wall_time": wall,
+        meta = {"step": h, "duration": n * h, "steps": n, "wall_time": wall, "master": "fmpy", "scheme": self.scheme,
                 "real_time_factor": (n * h / wall) if wall > 0 else math.inf,
                 "us_per_step": wall / max(n, 1) * 1e6,
                 "components": [{"name": c.name, "fmu": c.fmu, "parameters": dict(c.parameters)}

@@ -13,6 +13,8 @@
   of the run above ``min_speed`` (``coverage``) and the share of that in which the estimator
   was valid (``valid``) are reported with the errors.
 Angle errors are wrapped to (-pi, pi].
+
+:func:`trajectory_difference` compares two runs of the same loop (e.g. two masters).
 """
 from __future__ import annotations
 
@@ -20,7 +22,8 @@ import math
 
 import numpy as np
 
-__all__ = ["wrap", "estimate_metrics", "scenario_summary", "format_table", "EVAL_MIN_SPEED"]
+__all__ = ["wrap", "estimate_metrics", "scenario_summary", "format_table", "trajectory_difference",
+           "EVAL_MIN_SPEED"]
 
 EVAL_MIN_SPEED = 2.0
 """Speed [m/s] below which sideslip errors are not evaluated."""
@@ -129,3 +132,40 @@ def format_table(per_estimator: dict) -> str:
     lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths))) for r in rows]
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)
+
+
+def trajectory_difference(reference, other) -> dict:
+    """Largest differences between two recordings of the same loop, per field and overall.
+
+    Rows are matched by time (``other`` may start later, e.g. libcosim's rows start at one
+    step); every field of ``other`` except ``time`` is compared.
+
+    Returns
+    -------
+    dict
+        ``max_abs`` and ``max_scaled`` (difference over the field's scale ``max(1, max|x|)``)
+        overall, the fields where they occur (``max_abs_field``, ``max_scaled_field``), and
+        ``per_field``: ``{field: (max_abs, max_scaled)}``.
+
+    Raises
+    ------
+    ValueError
+        When the time grids do not match.
+    """
+    t_ref, t_other = np.asarray(reference["time"]), np.asarray(other["time"])
+    start = int(np.searchsorted(t_ref, t_other[0] - 1e-12))
+    rows = slice(start, start + len(t_other))
+    if len(t_ref[rows]) != len(t_other) or np.max(np.abs(t_ref[rows] - t_other)) > 1e-9:
+        raise ValueError("the two recordings do not share a time grid")
+    per_field = {}
+    for name in other.dtype.names if hasattr(other, "dtype") else other.names:
+        if name == "time":
+            continue
+        a = np.asarray(reference[name][rows], dtype=float)
+        b = np.asarray(other[name], dtype=float)
+        d = float(np.max(np.abs(a - b))) if len(a) else 0.0
+        per_field[name] = (d, d / max(1.0, float(np.max(np.abs(a))) if len(a) else 1.0))
+    abs_field = max(per_field, key=lambda k: per_field[k][0])
+    scaled_field = max(per_field, key=lambda k: per_field[k][1])
+    return {"max_abs": per_field[abs_field][0], "max_abs_field": abs_field,
+            "max_scaled": per_field[scaled_field][1], "max_scaled_field": scaled_field, "per_field": per_field}

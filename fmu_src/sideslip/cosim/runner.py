@@ -116,7 +116,8 @@ class RunOutput:
 def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None = None,
                  out_dir: str | Path | None = None, duration: float | None = None, step: float = 1e-3,
                  record_every: int = 1, fmu_dir: str | Path = DEFAULT_OUT, params: dict | None = None,
-                 overrides: dict | None = None, control_source: str | None = None, progress=None) -> RunOutput:
+                 overrides: dict | None = None, control_source: str | None = None, progress=None,
+                 master: str = "fmpy", scheme: str = "gauss-seidel") -> RunOutput:
     """Run a scenario and (optionally) write ``results.csv``, ``metrics.json``, ``sideslip.png``.
 
     Parameters
@@ -135,19 +136,33 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
         Record every n-th step.
     overrides : dict, optional
         Scenario overrides (``maneuver_<key>``, ``sensor_<key>``, fields).
+    master : {"fmpy", "libcosim"}
+        The project's fmpy master, or DNV's libcosim (:mod:`sideslip.cosim.libcosim_master`;
+        Jacobi scheme, every step recorded, rows from ``t = step``).
+    scheme : {"gauss-seidel", "jacobi"}
+        Coupling scheme of the fmpy master (libcosim is always Jacobi).
     """
     sc = get_scenario(scenario, **(overrides or {})) if isinstance(scenario, str) else scenario
     comps, conns = scenario_components(sc, estimators, controller, params, control_source)
     estimators = [e.split("=", 1)[0] for e in estimators]          # instance names
+    run_for = duration if duration is not None else sc.duration
     t0 = time.perf_counter()
-    with CoSimulation(comps, conns, step=step, record_every=record_every, fmu_dir=fmu_dir) as sim:
-        res = sim.run(duration if duration is not None else sc.duration, progress=progress)
+    if master == "libcosim":
+        from .libcosim_master import run_libcosim
+
+        res = run_libcosim(comps, conns, duration=run_for, step=step, fmu_dir=fmu_dir)
+    elif master == "fmpy":
+        with CoSimulation(comps, conns, step=step, record_every=record_every, fmu_dir=fmu_dir, scheme=scheme) as sim:
+            res = sim.run(run_for, progress=progress)
+    else:
+        raise ValueError(f"master must be 'fmpy' or 'libcosim', got {master!r}")
     wall = time.perf_counter() - t0
     metrics = {"scenario": {"name": sc.name, "description": sc.description, "source": sc.source,
                             "vehicle": sc.vehicle, "maneuver": sc.maneuver, "road_mu": sc.road_mu,
                             "road_bank": sc.road_bank, "notes": list(sc.notes)},
                "summary": scenario_summary(res),
                "estimators": {e: estimate_metrics(res, e) for e in estimators},
+               "master": res.meta["master"], "scheme": res.meta["scheme"],
                "wall_time": wall, "simulation_wall_time": res.meta["wall_time"],
                "real_time_factor": res.meta["real_time_factor"], "us_per_step": res.meta["us_per_step"],
                "step": step, "components": res.meta["components"], "connections": res.meta["connections"],
