@@ -122,10 +122,10 @@ def run_libcosim(components, connections=(), duration: float = 1.0, step: float 
             if var is None or var.causality != "parameter":
                 raise MasterError(f"{c.name}: no parameter {key!r}")
             _set_start(execution, i, var, key, value)
+    vr = {(c.name, v.name): v.valueReference for c in components for v in mds[c.name].modelVariables}
     for (dst, name), (src, out, kind) in links.items():
-        vr = lambda inst, var: next(v.valueReference for v in mds[inst].modelVariables if v.name == var)  # noqa: E731
         connect = execution.connect_real_variables if kind == "Real" else execution.connect_boolean_variables
-        if connect(index[src], vr(src, out), index[dst], vr(dst, name)) != 0:       # returns the C status
+        if connect(index[src], vr[src, out], index[dst], vr[dst, name]) != 0:       # returns the C status
             raise MasterError(f"libcosim refused the connection {src}.{out} -> {dst}.{name}: {_last_error()}")
 
     real_out = [(c.name, v.name, v.valueReference) for c in components for v in mds[c.name].modelVariables
