@@ -14,7 +14,8 @@ from sideslip.estimators.fuzzy import Mamdani, Trapezoid
 from sideslip.estimators.discrete import SpeedCache, euler as discretize_euler, zoh as discretize_zoh
 from sideslip.estimators.nguyen2012 import continuous_model
 from sideslip.estimators.pi2011 import nonlinear_factor_system, pi_f, pi_F, pi_h, pi_H
-from sideslip.estimators.yoon2014 import (DelayIdentifier, earth_field, magnetometer_h, magnetometer_H, sideslip_F)
+from sideslip.estimators.yoon2014 import DelayIdentifier, magnetometer_h, magnetometer_H, sideslip_F
+from sideslip.geomagnetic import earth_field
 from sideslip.params import ParameterError, build
 from sideslip.vehicles import load_vehicle
 
@@ -69,6 +70,19 @@ def test_augmented_model_couples_the_disturbances_and_the_yaw_moment(coms_model)
     np.testing.assert_array_equal(A[:2, :2], a)
     assert A[0, 3] == A[1, 4] == A[2, 1] == 1.0 and not A[3:].any()          # eqs 4, 7, 12
     assert B[1, 1] == pytest.approx(1.0 / coms_model.I_z) and B[0, 1] == 0.0   # N_z enters the yaw equation
+
+
+@pytest.mark.parametrize("vx", [3.0, 5.56, 15.0])
+def test_dacmrkf_has_one_unobservable_direction_at_constant_speed(coms_model, vx):
+    # the README's explanation of the lane-change ranking: rank 4 of 5 on [yaw rate, course]
+    A, _ = continuous_model(coms_model, vx)
+    C = np.zeros((2, 5))
+    C[0, 1] = C[1, 0] = C[1, 2] = 1.0                              # gamma; c = beta + psi
+    O = np.vstack([C @ np.linalg.matrix_power(A, k) for k in range(5)])
+    assert np.linalg.matrix_rank(O) == 4
+    null = np.array([1.0, 0.0, -1.0, -A[0, 0], -A[1, 0]])
+    np.testing.assert_allclose(O @ null, 0.0, atol=1e-9 * np.abs(O).max())
+    assert np.linalg.matrix_rank(O[:, :3]) == 3                     # the MRKF's [beta, gamma, psi] is observable
 
 
 @pytest.mark.parametrize("mode,n", [("srkf", 2), ("mrkf", 3), ("dacmrkf", 5)])
@@ -236,3 +250,28 @@ def test_yoon_flags_magnetic_disturbances():
     flagged = res["y.mag_disturbed"] > 0.5
     assert truth.any() and (flagged & truth).sum() > 0.8 * truth.sum()
     assert (flagged & ~truth).sum() < 0.08 * (~truth).sum()   # the 0.04 threshold is 2 sigma of the norm's noise
+
+
+# ---------------------------------------------------------------- outside their own papers' scenarios
+def test_sensors_and_yoon_share_the_default_earth_field_and_the_runner_hands_it_over():
+    from sideslip.plant.sensors import SensorConfig
+    assert (SensorConfig().mag_inclination, SensorConfig().mag_declination) == \
+        (Yoon2014Config().mag_inclination, Yoon2014Config().mag_declination)
+    sc = get_scenario("park2018_case2", sensor_mag_inclination=0.9, sensor_mag_declination=0.1)
+    assert scenario_params(Yoon2014Config, sc)["mag_inclination"] == 0.9
+    assert scenario_params(Yoon2014Config, sc)["mag_declination"] == 0.1
+    assert "mag_inclination" not in scenario_params(Nguyen2012Config, sc)
+
+
+def test_yoon_and_nguyen_on_park_double_lane_change_with_an_offset_free_gyro():
+    """On another paper's scenario both methods work once their sensor assumptions hold (the runner
+    calibrates the magnetometer's field; the yaw-rate offset of Park's scenario is removed): 12 s
+    cover the first double lane change.  Measured: Yoon 0.036 / Nguyen 0.16 deg RMS."""
+    sc = get_scenario("park2018_case2", sensor_yaw_rate_bias=0.0)
+    res = run_library(sc, ["Yoon2014DualKF", "Nguyen2012DACMRKF"], duration=12.0)
+    moving = res["time"] > 0.5
+    roll_err = np.degrees(res["Yoon2014DualKF.roll_hat"] - res["plant.roll"])[moving]
+    assert np.abs(roll_err).max() < 0.3
+    for name, bound in (("Yoon2014DualKF", 0.1), ("Nguyen2012DACMRKF", 0.3)):
+        err = np.degrees(res[f"{name}.beta_hat"] - res["plant.beta"])[moving]
+        assert np.sqrt(np.mean(err ** 2)) < bound, name

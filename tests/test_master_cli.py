@@ -152,6 +152,17 @@ def test_cli_smoke_run(fmu_dir, tmp_path):
     assert proc.returncode == 2 and "one of" in proc.stderr
 
 
+def test_cli_run_names_the_sensor_offsets_and_what_the_estimators_assume(fmu_dir, tmp_path):
+    cmd = [sys.executable, "-m", "sideslip", "--fmu-dir", str(fmu_dir), "run", "--scenario", "park2018_case2",
+           "--duration", "0.5", "--out", str(tmp_path / "o"), "--set", "sensor_ax_bias=0",
+           "--estimator", "nguyen=Nguyen2012DACMRKF", "--estimator", "Park2018Observer"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "sensor offsets: ay 0.15 m/s2, yaw_rate 0.00873 rad/s\n" in proc.stdout     # ax set to 0
+    assert "  nguyen: an offset-free yaw rate" in proc.stdout
+    assert "Park2018Observer:" not in proc.stdout                 # compensates its offsets: nothing to say
+
+
 def test_cli_bench_json(fmu_dir):
     proc = subprocess.run([sys.executable, "-m", "sideslip", "--fmu-dir", str(fmu_dir), "bench", "--json",
                            "--duration", "0.3"], capture_output=True, text=True, timeout=300)

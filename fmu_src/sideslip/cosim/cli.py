@@ -50,6 +50,28 @@ def _cmd_list(args) -> int:
     return 0
 
 
+def _sensor_offsets(scenario: str, overrides: dict) -> str:
+    """The scenario's non-zero sensor biases, e.g. ``yaw_rate 0.00873 rad/s``."""
+    from ..params import declared_fields
+    from ..plant.sensors import SensorConfig
+    from ..units import unit_of_quantity
+    from .scenarios import get_scenario
+
+    sensors = get_scenario(scenario, **(overrides or {})).sensors
+    biases = {f.name[:-len("_bias")]: (float(sensors.get(f.name, 0.0)), unit_of_quantity(info.quantity))
+              for f, info in declared_fields(SensorConfig) if f.name.endswith("_bias")}
+    return ", ".join(f"{name} {value:.3g} {unit}" for name, (value, unit) in biases.items() if value)
+
+
+def _assumptions(estimators) -> list[tuple[str, str]]:
+    """``(instance, needs)`` of the run's estimators that state sensor assumptions."""
+    from ..fmi.registry import fmu_entry
+
+    pairs = [e.split("=", 1) if "=" in e else (e, e) for e in estimators]
+    found = [(inst, getattr(fmu_entry(fmu).slave_class.model_class, "needs", "")) for inst, fmu in pairs]
+    return [(inst, text) for inst, text in found if text]
+
+
 def _run(args, estimators, out_dir) -> int:
     from .runner import run_scenario
 
@@ -71,11 +93,19 @@ def _run(args, estimators, out_dir) -> int:
     print(f"scenario {m['scenario']['name']}: {m['scenario']['description']}")
     print(f"  truth: max |beta| {s['max_abs_beta_deg']:.2f} deg, max |ay| {s['max_abs_ay']:.2f} m/s2, "
           f"max |yaw rate| {s['max_abs_yaw_rate_deg_s']:.1f} deg/s, final speed {s['final_speed']:.2f} m/s")
+    offsets = _sensor_offsets(args.scenario, _kv(args.set, "--set"))
+    if offsets:
+        print(f"  sensor offsets: {offsets}")
     print(f"  {m['us_per_step']:.1f} us per step, {m['real_time_factor']:.1f}x real time "
           f"({m['simulation_wall_time']:.1f} s wall)")
     if run.table():
         print()
         print(run.table())
+    needs = _assumptions(estimators)
+    if needs:
+        print("\nwhat these methods assume of their sensors (outside it their error grows):")
+        for name, text in needs:
+            print(f"  {name}: {text}")
     warnings = [msg for msg in m["messages"] if msg.startswith(("[warning]", "[error]"))]
     if warnings:
         print("\nFMU messages:")

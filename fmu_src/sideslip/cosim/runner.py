@@ -26,12 +26,18 @@ TRUTH_SOURCE = {"beta": "beta_hat", "vx": "vx_hat"}
 """Plant truth -> controller input when the controller runs on the true sideslip (``control_source="truth"``)."""
 
 
+_CALIBRATION = ("mag_inclination", "mag_declination")
+"""Sensor parameters an estimator with a parameter of the same name takes over from the scenario."""
+
+
 def scenario_params(config_class, scenario: Scenario) -> dict:
-    """Parameters a model with ``config_class`` takes from the scenario: its vehicle and hints."""
+    """Parameters a model with ``config_class`` takes from the scenario: its vehicle, the Earth field
+    of its magnetometer (a calibration, like the vehicle parameters) and its hints."""
     names = {f.name for f, _ in declared_fields(config_class)}
     params = {"vehicle": scenario.vehicle} if "vehicle" in names else {}
     if "vehicle_overrides" in names and scenario.vehicle_overrides:
         params["vehicle_overrides"] = scenario.vehicle_overrides
+    params.update({k: v for k, v in scenario.sensors.items() if k in _CALIBRATION and k in names})
     params.update({k: v for k, v in scenario.hints.items() if k in names})
     return params
 

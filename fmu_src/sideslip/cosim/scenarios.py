@@ -230,9 +230,7 @@ def _yoon(man: str, road: str, banked: bool) -> Scenario:
     sensors = dict(_YOON_SENSORS, mag_dist_horizon=dur)
     return Scenario(name, f"{man.upper()} on {'banked ' if banked else ''}{road} (mu {mu})",
                     "Yoon & Peng 2014 Section V, Table II", "kim2016_asm", spec, dur, road_mu=f"{mu}",
-                    road_bank=f"{bank:.10g}", sensors=sensors, notes=_YOON_NOTES,
-                    hints={"mag_inclination": _YOON_SENSORS["mag_inclination"],
-                           "mag_declination": _YOON_SENSORS["mag_declination"], "t_maneuver": t_man})
+                    road_bank=f"{bank:.10g}", sensors=sensors, notes=_YOON_NOTES)
 
 
 for _m in ("slc", "dlc", "slalom", "jturn"):

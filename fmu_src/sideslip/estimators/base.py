@@ -80,6 +80,8 @@ class Estimator(Model):
     """
 
     extra_outputs: tuple = ()
+    needs: str = ""
+    """What the method assumes of its sensors beyond their noise (printed under a run's table)."""
     config_class = EstimatorConfig
 
     def __init_subclass__(cls, **kw):

@@ -49,6 +49,7 @@ class OpenLoopKinematic(Estimator):
     """
 
     config_class = OpenLoopConfig
+    needs = "offset-free a_y and yaw rate: it integrates them with no correction, so an offset drifts"
     input_names = ("ay_m", "yaw_rate_m", *_WHEELS)
     In = input_enum("In", input_names)
 
@@ -98,6 +99,7 @@ class LinearBicycleObserver(Estimator):
     """Pi 2011 eq 20 as a linear Kalman filter: states ``[beta, r]``, input ``delta_f``, measure ``r``."""
 
     config_class = BicycleObserverConfig
+    needs = "tires in their linear range with the nominal cornering stiffness (no adaptation, no friction limit)"
     input_names = ("delta_m", "yaw_rate_m", *_WHEELS)
     In = input_enum("In", input_names)
 

@@ -24,6 +24,10 @@ paper's).  The model depends on ``v_x``, so the matrices are cached per 0.01 m/s
 fastest mode is ``|lambda| T ~ 0.01``, so the two differ by ``(lambda T)^2 / 2 ~ 5e-5`` relative
 per step: the README gives the measured effect on the estimates.
 
+Observability: at constant speed the DACMRKF's state on yaw rate and course has rank 4 of 5; the
+direction ``(1, 0, -1, -a11, -a21)`` (a sideslip shift taken up by the heading and by ``d1, d2``)
+changes neither measurement, so the estimate can wander along it (README, Nguyen table).
+
 The course is compared with ``psi + beta`` modulo 2 pi (the innovation is wrapped), so laps do
 not matter; ``psi`` is started from the first course fix and kept in (-pi, pi].
 """
@@ -98,6 +102,8 @@ class Nguyen2012DACMRKF(Estimator):
     config_class = Nguyen2012Config
     input_names = ("yaw_rate_m", "delta_m", *_WHEELS, "gps_course", "gps_fresh", "gps_valid", "Mz_cmd")
     extra_outputs = ("yaw_hat", "d1_hat", "d2_hat")
+    needs = ("an offset-free yaw rate: the method has no gyro-offset state, and an offset b moves beta_hat "
+             "at -b rad/s along the direction it cannot observe")
     In = input_enum("In", input_names)
 
     def _init_filter(self):

@@ -51,13 +51,15 @@ from enum import IntEnum
 
 import numpy as np
 
+from .. import geomagnetic
+from ..geomagnetic import earth_field
 from ..params import param
 from ..vehicles import GRAVITY
 from .base import Estimator, EstimatorConfig, beta_std, input_enum
 from .baselines import BicycleObserverConfig, LinearBicycleObserver
 from .kalman import KalmanFilter
 
-__all__ = ["Yoon2014Config", "Yoon2014DualKF", "Hd", "Sd", "magnetometer_h", "magnetometer_H", "earth_field",
+__all__ = ["Yoon2014Config", "Yoon2014DualKF", "Hd", "Sd", "magnetometer_h", "magnetometer_H",
            "sideslip_F", "DelayIdentifier"]
 
 _WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
@@ -74,12 +76,6 @@ class Sd(IntEnum):
 
 
 # ------------------------------------------------------------------------------ the models
-def earth_field(inclination: float, declination: float) -> tuple[float, float, float]:
-    """Unit Earth field in ENU: horizontal part to magnetic north, dipping by the inclination."""
-    return (math.cos(inclination) * math.sin(declination), math.cos(inclination) * math.cos(declination),
-            -math.sin(inclination))
-
-
 def magnetometer_h(psi: float, phi: float, field) -> np.ndarray:
     """Eq 22 in ENU/ISO axes, zero pitch: ``R_x(phi)^T R_z(psi)^T F``."""
     fe, fn, fu = field
@@ -166,9 +162,10 @@ class Yoon2014Config(EstimatorConfig):
     vehicle: str = param("kim2016_asm", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
     mu: float = param(1.0, "FrictionCoefficient", "Friction for the bicycle model's nominal stiffness (eq 32)",
                       ge=0.05, le=1.5)
-    mag_inclination: float = param(math.radians(68.0), "Angle", "Inclination of the Earth field (calibrated)",
+    mag_inclination: float = param(geomagnetic.INCLINATION, "Angle", "Inclination of the Earth field (calibrated)",
                                    ge=-math.pi / 2, le=math.pi / 2)
-    mag_declination: float = param(0.0, "Angle", "Declination of the Earth field (calibrated yaw offset)",
+    mag_declination: float = param(geomagnetic.DECLINATION, "Angle",
+                                   "Declination of the Earth field (calibrated yaw offset)",
                                    ge=-math.pi, le=math.pi)
     # heading EKF
     q_psi: float = param(1e-8, "Dimensionless", "Process noise of the yaw angle per sample [rad2]", gt=0, le=1)
@@ -213,6 +210,8 @@ class Yoon2014DualKF(Estimator):
     input_names = ("ax_m", "ay_m", "yaw_rate_m", "roll_rate_m", "delta_m", *_WHEELS, "gps_ve", "gps_vn",
                    "gps_fresh", "gps_valid", "mag_x", "mag_y", "mag_z")
     extra_outputs = ("yaw_hat", "roll_hat", "bias_ax_hat", "bias_ay_hat", "gps_delay_hat", "mag_disturbed")
+    needs = ("gyro biases calibrated at a standstill before driving off; a yaw-rate offset it could not "
+             "calibrate tilts the heading, and the sideslip with it, in every turn")
     In = input_enum("In", input_names)
 
     def _init_filter(self):

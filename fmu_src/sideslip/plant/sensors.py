@@ -29,6 +29,8 @@ from enum import IntEnum
 
 import numpy as np
 
+from .. import geomagnetic
+from ..geomagnetic import earth_field
 from ..model import Model
 from ..params import ParameterError, check, param
 from ..signals import SENSOR_OUTPUTS
@@ -100,9 +102,10 @@ class SensorConfig:
     gps_outages: str = param("", "Dimensionless", "GPS outage windows, e.g. '10-15, 30-32' [s]")
     mag_rate: float = param(100.0, "Frequency", "Magnetometer sample rate", ge=1, le=10000)
     mag_sigma: float = param(0.005, "MagneticFluxRatio", "Noise of each magnetometer axis (normalised)", ge=0, le=1)
-    mag_inclination: float = param(math.radians(60.0), "Angle", "Inclination (dip) of the Earth field, "
+    mag_inclination: float = param(geomagnetic.INCLINATION, "Angle", "Inclination (dip) of the Earth field, "
                                    "positive pointing down", ge=-math.pi / 2, le=math.pi / 2)
-    mag_declination: float = param(0.0, "Angle", "Declination: magnetic north east of true north",
+    mag_declination: float = param(geomagnetic.DECLINATION, "Angle",
+                                   "Declination: magnetic north east of true north",
                                    ge=-math.pi, le=math.pi)
     mag_dist_count: int = param(0, "Dimensionless", "Number of magnetic disturbance episodes", ge=0, le=1000)
     mag_dist_share: float = param(0.1, "Dimensionless", "Share of the horizon that is disturbed", ge=0, le=1)
@@ -149,9 +152,7 @@ class SensorSuite(Model):
     def __init__(self, config: SensorConfig | None = None):
         self.config = cfg = config or SensorConfig()
         self._outages = parse_windows(cfg.gps_outages)
-        inc, dec = cfg.mag_inclination, cfg.mag_declination
-        # unit Earth field in ENU: horizontal part points to magnetic north, dip downwards
-        self._field = (math.cos(inc) * math.sin(dec), math.cos(inc) * math.cos(dec), -math.sin(inc))
+        self._field = earth_field(cfg.mag_inclination, cfg.mag_declination)
         self._rng = np.random.default_rng(cfg.seed)
         self.episodes = self._draw_episodes()
         self.reset()
