@@ -66,9 +66,10 @@ def _sensor_offsets(scenario: str, overrides: dict) -> str:
 def _assumptions(estimators) -> list[tuple[str, str]]:
     """``(instance, needs)`` of the run's estimators that state sensor assumptions."""
     from ..fmi.registry import fmu_entry
+    from .runner import estimator_instances
 
-    pairs = [e.split("=", 1) if "=" in e else (e, e) for e in estimators]
-    found = [(inst, getattr(fmu_entry(fmu).slave_class.model_class, "needs", "")) for inst, fmu in pairs]
+    found = [(inst, getattr(fmu_entry(fmu).slave_class.model_class, "needs", ""))
+             for inst, fmu in estimator_instances(estimators)]
     return [(inst, text) for inst, text in found if text]
 
 

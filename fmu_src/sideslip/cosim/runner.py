@@ -47,6 +47,11 @@ def _auto_params(fmu: str, scenario: Scenario) -> dict:
     return scenario_params(fmu_entry(fmu).slave_class.config_class, scenario)
 
 
+def estimator_instances(estimators) -> list[tuple[str, str]]:
+    """``(instance, FMU name)`` of estimator specs ``"FMU"`` or ``"instance=FMU"``."""
+    return [tuple(e.split("=", 1)) if "=" in e else (e, e) for e in estimators]
+
+
 def scenario_components(scenario: Scenario, estimators=(), controller: str | None = None,
                         params: dict | None = None, control_source: str | None = None):
     """Components and explicit connections of a scenario run.
@@ -69,7 +74,7 @@ def scenario_components(scenario: Scenario, estimators=(), controller: str | Non
     -------
     list of Component, list of (str, str)
     """
-    pairs = [tuple(e.split("=", 1)) if "=" in e else (e, e) for e in estimators]
+    pairs = estimator_instances(estimators)
     estimators = [inst for inst, _ in pairs]
     known = set(fmu_names("estimator"))
     for _, fmu in pairs:
@@ -150,7 +155,7 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
     """
     sc = get_scenario(scenario, **(overrides or {})) if isinstance(scenario, str) else scenario
     comps, conns = scenario_components(sc, estimators, controller, params, control_source)
-    estimators = [e.split("=", 1)[0] for e in estimators]          # instance names
+    estimators = [inst for inst, _ in estimator_instances(estimators)]
     run_for = duration if duration is not None else sc.duration
     t0 = time.perf_counter()
     if master == "libcosim":
