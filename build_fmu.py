@@ -1,15 +1,13 @@
 """Build every FMU of the project: ``python build_fmu.py [--out DIR] [--force] [NAME ...]``.
 
-Default output folder: ``build/fmus/``.  Exits non-zero with the reason on any failure.
+Default output folder: ``build/fmus/``.  Needs the project installed (``pip install -e .``);
+exits non-zero with the reason on any failure.  Same as ``python -m sideslip build``.
 """
 import argparse
 import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "fmu_src"))
-
-from sideslip.fmi.build import DEFAULT_OUT, BuildError, build_fmus  # noqa: E402
-from sideslip.fmi.registry import fmu_names  # noqa: E402
+from sideslip.fmi.build import DEFAULT_OUT, BuildError, build_fmus
+from sideslip.fmi.catalogue import fmu_names
 
 
 def main(argv=None) -> int:

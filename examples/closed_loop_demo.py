@@ -4,14 +4,14 @@ This is what ``python -m sideslip demo`` runs.  FMUs are built on first use (bui
 """
 from pathlib import Path
 
-from sideslip.cosim.runner import run_scenario
-from sideslip.fmi.registry import fmu_names
+from sideslip.studies.runs import run_scenario
+from sideslip.fmi.catalogue import fmu_names
 
 OUT = Path("out") / "examples" / "closed_loop_demo"
 
 
 def run(show_plot=True, scenario="park2018_case2", duration=None, out_dir=OUT):
-    """Run ``scenario`` with every estimator FMU; return the :class:`~sideslip.cosim.runner.RunOutput`."""
+    """Run ``scenario`` with every estimator FMU; return the :class:`~sideslip.studies.runs.RunOutput`."""
     estimators = fmu_names("estimator")
     out = run_scenario(scenario, estimators, out_dir=out_dir, duration=duration)
     summary = out.metrics["summary"]

@@ -13,9 +13,10 @@ import time
 from pathlib import Path
 
 from sideslip.cosim.libcosim_master import run_libcosim, run_libcosim_ssp
-from sideslip.cosim.metrics import trajectory_difference
-from sideslip.cosim.runner import run_scenario, scenario_components
-from sideslip.cosim.scenarios import get_scenario
+from sideslip.studies.metrics import trajectory_difference
+from sideslip.cosim.assembly import scenario_components
+from sideslip.studies.runs import run_scenario
+from sideslip.scenarios import get_scenario
 from sideslip.cosim.ssp import export_ssp
 
 

@@ -7,7 +7,8 @@ import math
 
 import numpy as np
 
-from sideslip.cosim.master import Component, CoSimulation
+from sideslip.cosim.assembly import Component
+from sideslip.cosim.master import CoSimulation
 
 
 def run(show_plot=True, duration=8.0):

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize
 
-from sideslip.cosim.paper_tables import run_jobs
+from sideslip.studies.runs import run_jobs
 from sideslip.estimators import ESTIMATORS
 from sideslip.fmi.build import DEFAULT_OUT
 

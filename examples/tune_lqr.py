@@ -2,7 +2,7 @@
 
 Every point (q_beta, q_gamma, q_N) runs ``LqrDycController`` (on the true sideslip by default)
 in closed loop with the plant, sensor and driver FMUs over the maneuver set
-:data:`sideslip.cosim.control_eval.TUNING_MANEUVERS` (three 5 s FMVSS 126 sine-with-dwell runs).
+:data:`sideslip.studies.control_eval.TUNING_MANEUVERS` (three 5 s FMVSS 126 sine-with-dwell runs).
 Points run on a local process pool, or on a Dask distributed cluster with ``--scheduler``;
 each result is appended to the CSV as it finishes, so an interrupted study restarted with
 the same CSV only runs the missing points.  The Pareto front of tracking error against
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sideslip.cosim.control_eval import TUNING_MANEUVERS, evaluate_weights
-from sideslip.cosim.sweep import CsvLog, parallel_map
+from sideslip.studies.control_eval import TUNING_MANEUVERS, evaluate_weights
+from sideslip.studies.jobs import CsvLog, parallel_map
 from sideslip.fmi.build import DEFAULT_OUT, ensure_fmus
 
 OUT = Path("out") / "examples" / "tune_lqr"

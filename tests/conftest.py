@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from sideslip.fmi.build import build_fmus
+from sideslip.fmi.variables import fmi_value
 
 
 @pytest.fixture(scope="session")
@@ -47,27 +48,14 @@ class FmuHarness:
     def set(self, **values):
         for name, value in values.items():
             v = self.vars[name]
-            if v.type == "Real":
-                self.fmu.setReal([v.valueReference], [float(value)])
-            elif v.type == "Integer":
-                self.fmu.setInteger([v.valueReference], [int(value)])
-            elif v.type == "Boolean":
-                self.fmu.setBoolean([v.valueReference], [bool(value)])
-            else:
-                self.fmu.setString([v.valueReference], [str(value)])
+            getattr(self.fmu, f"set{v.type}")([v.valueReference], [fmi_value(v.type, value, name)])
 
     def get(self, *names):
         out = []
         for name in names:
             v = self.vars[name]
-            if v.type == "Real":
-                out.append(self.fmu.getReal([v.valueReference])[0])
-            elif v.type == "Boolean":
-                out.append(float(self.fmu.getBoolean([v.valueReference])[0]))
-            elif v.type == "Integer":
-                out.append(self.fmu.getInteger([v.valueReference])[0])
-            else:
-                out.append(self.fmu.getString([v.valueReference])[0])
+            value = getattr(self.fmu, f"get{v.type}")([v.valueReference])[0]
+            out.append(float(value) if v.type == "Boolean" else value)
         return out
 
     def outputs(self):

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 
-from sideslip.cosim.runner import run_scenario
+from sideslip.studies.runs import run_scenario
 from sideslip.fmi.build import python_config
-from sideslip.fmi.registry import fmu_names
+from sideslip.fmi.catalogue import fmu_names
 
 NATIVE = Path(__file__).parent / "native"
 CC = next((shutil.which(c) for c in (os.environ.get("CC"), "cc", "gcc") if c and shutil.which(c)), None)

@@ -12,10 +12,11 @@ from sideslip.bicycle import BicycleModel
 from sideslip.control.dyc import LqrDycConfig, LqrDycController, yaw_moment_limit
 from sideslip.control.feedforward import ScheduledFeedforward, feedforward_tf, reference_sideslip, sideslip_responses
 from sideslip.control.lqr import lqr_gains, lqr_row, yaw_moment_model
-from sideslip.control.reference import G, ReferenceModel
+from sideslip.constants import STANDARD_GRAVITY
+from sideslip.control.reference import ReferenceModel
 from sideslip.control.stability import StabilityController, StabilityControllerConfig
-from sideslip.cosim.runner import run_library
-from sideslip.cosim.scenarios import get_scenario
+from sideslip.studies.runs import run_library
+from sideslip.scenarios import get_scenario
 from sideslip.estimators import ESTIMATORS
 from sideslip.params import ParameterError, build
 from sideslip.vehicles import load_vehicle
@@ -105,7 +106,7 @@ def test_reference_is_the_bicycle_steady_state_and_friction_limited():
     kb, kg = SUV.steady_state_gains(10.0)
     assert ref.step(0.01, 10.0) == pytest.approx((kb * 0.01, kg * 0.01), rel=1e-12)     # linear range
     beta, gamma = ref.step(0.2, 20.0)
-    assert gamma == pytest.approx(0.8 * G / 20.0, rel=1e-12)                          # |gamma| <= mu g / vx
+    assert gamma == pytest.approx(0.8 * STANDARD_GRAVITY / 20.0, rel=1e-12)                          # |gamma| <= mu g / vx
     kb, kg = SUV.steady_state_gains(20.0)
     assert beta / gamma == pytest.approx(kb / kg, rel=1e-12)                          # on the steady-state line
     lagged = ReferenceModel(SUV, 0.15, 0.1, 1e-3, mu=0.8)
@@ -217,7 +218,7 @@ def test_controller_fmu_bad_parameter_is_fmi2error_naming_it(harness):
 
 # ------------------------------------------------------------------------------ evaluation helpers and wiring
 def test_fmvss126_metrics_on_a_synthetic_run():
-    from sideslip.cosim.control_eval import fmvss126_metrics
+    from sideslip.studies.control_eval import fmvss126_metrics
     t = np.arange(0, 8.0, 1e-3)
     t_bos, t_cos = 1.0, 1.0 + 1 / 0.7 + 0.5
     dsw = np.where((t > t_bos) & (t < t_bos + 0.714), 1.0, np.where((t >= t_bos + 0.714) & (t < t_cos), -1.0, 0.0))
@@ -237,7 +238,9 @@ def test_fmvss126_metrics_on_a_synthetic_run():
 
 
 def test_runner_feeds_the_controller_truth_or_an_estimator_and_its_command_to_the_plant(fmu_dir):
-    from sideslip.cosim.runner import run_scenario, scenario_components
+    from sideslip.cosim.assembly import scenario_components
+    from sideslip.studies.runs import run_scenario
+
     sc = get_scenario("nguyen2012_cornering")
     _, conns = scenario_components(sc, [], "LqrDycController")
     assert set(conns) == {("plant.beta", "controller.beta_hat"), ("plant.vx", "controller.vx_hat")}

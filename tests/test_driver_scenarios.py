@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from sideslip.cosim.scenarios import SCENARIOS, fmvss126_reference_angle, get_scenario, scenario_names
+from sideslip.scenarios import SCENARIOS, fmvss126_reference_angle, get_scenario, scenario_names
 from sideslip.params import ParameterError, build
 from sideslip.plant import paths as P
 from sideslip.plant.driver import Driver, DriverConfig

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from sideslip.cosim.runner import run_library, scenario_params
-from sideslip.cosim.scenarios import get_scenario
+from sideslip.scenarios import scenario_params
+from sideslip.studies.runs import run_library
+from sideslip.scenarios import get_scenario
 from sideslip.estimators import ESTIMATORS
 from sideslip.params import build
 

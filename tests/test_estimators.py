@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from sideslip.bicycle import BicycleModel
-from sideslip.cosim.runner import run_library
-from sideslip.cosim.scenarios import get_scenario
+from sideslip.studies.runs import run_library
+from sideslip.scenarios import get_scenario
 from sideslip.estimators import (ESTIMATORS, BicycleObserverConfig, Kim2016Config, Kim2016SteeringEKF,
                                  LinearBicycleObserver, OpenLoopConfig, OpenLoopKinematic, Park2018Config,
                                  Park2018Observer)
@@ -17,7 +17,8 @@ from sideslip.estimators.park2018 import (bicycle_f, bicycle_F, bicycle_h, bicyc
                                           kinematic_f, kinematic_F, kinematic_h, kinematic_H, weighting_factor)
 from sideslip.params import ParameterError, build
 from sideslip.signals import ESTIMATOR_COMMON_OUTPUTS
-from sideslip.vehicles import GRAVITY, load_vehicle
+from sideslip.constants import GRAVITY
+from sideslip.vehicles import load_vehicle
 
 RNG = np.random.default_rng(7)
 

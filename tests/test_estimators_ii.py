@@ -6,8 +6,9 @@ import pytest
 from scipy.linalg import expm
 
 from sideslip.bicycle import BicycleModel
-from sideslip.cosim.runner import run_library, scenario_params
-from sideslip.cosim.scenarios import get_scenario
+from sideslip.scenarios import scenario_params
+from sideslip.studies.runs import run_library
+from sideslip.scenarios import get_scenario
 from sideslip.estimators import (Nguyen2012Config, Nguyen2012DACMRKF, Pi2011Config, Pi2011FuzzyEKF, Yoon2014Config,
                                  Yoon2014DualKF)
 from sideslip.estimators.fuzzy import Mamdani, Trapezoid
@@ -74,7 +75,7 @@ def test_augmented_model_couples_the_disturbances_and_the_yaw_moment(coms_model)
 
 @pytest.mark.parametrize("vx", [3.0, 5.56, 15.0])
 def test_dacmrkf_has_one_unobservable_direction_at_constant_speed(coms_model, vx):
-    # the README's explanation of the lane-change ranking: rank 4 of 5 on [yaw rate, course]
+    # the explanation of the lane-change ranking (docs/accuracy.md): rank 4 of 5 on [yaw rate, course]
     A, _ = continuous_model(coms_model, vx)
     C = np.zeros((2, 5))
     C[0, 1] = C[1, 0] = C[1, 2] = 1.0                              # gamma; c = beta + psi

@@ -44,7 +44,7 @@ _TINY_GRID = {"q_beta": [1e10], "q_gamma": [1e8, 1e9], "q_N": [1.0]}
 
 
 def _tiny_maneuvers():
-    from sideslip.cosim.control_eval import TUNING_MANEUVERS
+    from sideslip.studies.control_eval import TUNING_MANEUVERS
     return TUNING_MANEUVERS[:1]
 
 

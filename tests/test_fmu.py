@@ -11,7 +11,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.validation import validate_fmu
 
 from sideslip.fmi.build import build_fmus
-from sideslip.fmi.registry import fmu_entries
+from sideslip.fmi.catalogue import CATALOGUE
 from sideslip.plant.driver import Driver, DriverConfig
 from sideslip.plant.sensors import SensorConfig, SensorSuite
 from sideslip.plant.vehicle import PlantConfig, VehiclePlant
@@ -19,7 +19,7 @@ from sideslip.signals import SIGNALS
 
 from conftest import FmuHarness, assert_save_restore_repeats
 
-FMUS = sorted(fmu_entries())
+FMUS = sorted(CATALOGUE)
 PLANT_FMUS = ["VehiclePlant", "VehicleSensors", "ManeuverDriver"]
 RNG = np.random.default_rng(0)
 
@@ -33,7 +33,7 @@ def test_fmpy_validate_reports_no_problem(fmu_dir, name):
 @pytest.mark.parametrize("name", FMUS)
 def test_ports_equal_the_catalogue(fmu_dir, name):
     md = read_model_description(str(fmu_dir / f"{name}.fmu"))
-    entry = fmu_entries()[name]
+    entry = CATALOGUE[name]
     ins = [v for v in md.modelVariables if v.causality == "input"]
     outs = [v for v in md.modelVariables if v.causality == "output"]
     assert [v.name for v in ins] == list(entry.inputs)

@@ -1,44 +1,187 @@
-"""Architecture rules of DESIGN.md that can be checked mechanically."""
-import ast
+"""The layers of DESIGN.md, checked mechanically: which package may import which, no import circles,
+the FMU catalogue against the wrappers, and a non-editable install that lists and builds every FMU."""
+import re
 import subprocess
 import sys
+import sysconfig
+import tomllib
+import zipfile
 from pathlib import Path
 
-PACKAGE = Path(__file__).resolve().parents[1] / "fmu_src" / "sideslip"
+import pytest
+
+from sideslip.estimators import ESTIMATORS
+from sideslip.fmi.bundle import PACKAGE_DIR, bundled_files, module_imports, module_name, wrapper_script
+from sideslip.fmi.catalogue import CATALOGUE, fmu_names
+from sideslip.fmi.slave import SideslipSlave
+
+ROOT = Path(__file__).resolve().parents[1]
+
+LAYERS = {"core": 0, "fmi": 1, "cosim": 2, "studies": 3, "cli": 4}
+"""A module may import modules of its own layer and of the layers before it."""
+
+THIRD_PARTY = {"core": {"numpy", "scipy", "control"},
+               "fmi": {"numpy", "scipy", "control", "pythonfmu", "fmpy"},
+               "cosim": {"numpy", "scipy", "control", "pythonfmu", "fmpy", "libcosimpy"},
+               "studies": {"numpy", "scipy", "control", "fmpy", "matplotlib", "distributed"},
+               "cli": {"numpy"}}
+"""Third-party packages each layer may import (the core never imports pythonfmu or fmpy)."""
 
 
-def _imports(path: Path) -> set[str]:
-    tree = ast.parse(path.read_text())
-    names = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names |= {a.name.split(".")[0] for a in node.names}
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names.add(node.module.split(".")[0])
-    return names
+def _layer(name: str) -> str:
+    parts = name.split(".")
+    if len(parts) > 1 and parts[1] in ("fmi", "cosim", "studies"):
+        return parts[1]
+    if len(parts) > 1 and parts[1] in ("cli", "__main__"):
+        return "cli"
+    return "core"
 
 
-def test_only_the_fmu_toolkit_and_the_master_import_pythonfmu_or_fmpy():
-    offenders = []
-    for path in PACKAGE.rglob("*.py"):
-        rel = path.relative_to(PACKAGE).parts
-        allowed = {"fmi": {"pythonfmu", "fmpy"}, "cosim": {"fmpy"}}.get(rel[0], set())
-        bad = (_imports(path) & {"pythonfmu", "fmpy"}) - allowed
-        if bad:
-            offenders.append((str(path.relative_to(PACKAGE)), bad))
+def _graph() -> dict[str, set[str]]:
+    """Module -> the project modules it imports (anywhere in the file, functions included)."""
+    files = {module_name(p): p for p in PACKAGE_DIR.rglob("*.py")}
+    graph = {}
+    for name, path in files.items():
+        targets = set()
+        for imported in module_imports(path):
+            while imported and imported not in files:          # "pkg.mod.attr" -> "pkg.mod"
+                imported = imported.rpartition(".")[0]
+            if imported and imported != name:
+                targets.add(imported)
+        graph[name] = targets
+    return graph
+
+
+def test_no_module_imports_a_later_layer():
+    offenders = [(m, t) for m, targets in _graph().items() for t in targets
+                 if LAYERS[_layer(t)] > LAYERS[_layer(m)]]
     assert offenders == []
 
 
-def test_importing_the_algorithms_pulls_in_neither_pythonfmu_nor_fmpy():
-    code = ("import sys, sideslip, sideslip.plant.vehicle, sideslip.plant.sensors, sideslip.plant.driver, "
-            "sideslip.bicycle, sideslip.cosim.scenarios, sideslip.cosim.metrics; "
+def test_each_layer_imports_only_its_third_party_packages():
+    offenders = []
+    for path in PACKAGE_DIR.rglob("*.py"):
+        name = module_name(path)
+        tops = {i.split(".")[0] for i in module_imports(path)} - {"sideslip", "__future__"}
+        bad = {t for t in tops if t not in sys.stdlib_module_names} - THIRD_PARTY[_layer(name)]
+        if bad:
+            offenders.append((name, sorted(bad)))
+    assert offenders == []
+
+
+def test_the_import_graph_has_no_circle():
+    """Tarjan's strongly connected components on the module graph: every component is one module.
+    Imports of a package's ``__init__`` by its own submodules would be circles too."""
+    graph = _graph()
+    index, low, stack, on_stack, circles = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = set()
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                comp.add(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                circles.append(sorted(comp))
+
+    sys.setrecursionlimit(10000)
+    for v in graph:
+        if v not in index:
+            visit(v)
+    assert circles == []
+
+
+def test_importing_the_library_core_pulls_in_neither_pythonfmu_nor_fmpy():
+    core = sorted(m for m in _graph() if _layer(m) == "core" and not m.endswith("__main__"))
+    code = (f"import sys, importlib; [importlib.import_module(m) for m in {core!r}]; "
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('pythonfmu', 'fmpy')))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
 
 
-def test_wrapper_modules_have_project_unique_names():
-    root = PACKAGE.parents[1]
-    wrappers = list((root / "plant_fmus").glob("*.py")) + list((root / "fmu_src").glob("*_fmu.py"))
-    assert wrappers and all(w.stem.startswith("sideslip_") or w.stem.endswith("_fmu") for w in wrappers)
-    assert all(w.stem.endswith("_fmu") for w in wrappers)
+# ---------------------------------------------------------------- the FMU catalogue
+def test_every_catalogue_entry_has_its_wrapper_and_no_wrapper_is_outside_the_catalogue():
+    wrappers = {p.stem for p in (ROOT / "fmu_src").glob("*_fmu.py")}
+    assert wrappers == {spec.module for spec in CATALOGUE.values()}
+    for spec in CATALOGUE.values():
+        assert wrapper_script(spec) == ROOT / "fmu_src" / f"{spec.module}.py"
+
+
+@pytest.mark.parametrize("name", sorted(CATALOGUE))
+def test_a_wrapper_is_its_class_statement_and_takes_everything_from_the_catalogue(name):
+    import importlib
+    import inspect
+
+    spec = CATALOGUE[name]
+    module = importlib.import_module(spec.module)
+    classes = [c for _, c in inspect.getmembers(module, inspect.isclass)
+               if issubclass(c, SideslipSlave) and c.__module__ == spec.module]
+    assert [c.__name__ for c in classes] == [name]
+    cls = classes[0]
+    assert (cls.model_class, cls.config_class, cls.role, cls.description) == (
+        spec.model_class, spec.config_class, spec.role, spec.description)
+    assert list(cls.model_class.input_names) == list(spec.inputs)
+    assert len(wrapper_script(spec).read_text().splitlines()) <= 10
+
+
+def test_the_catalogue_estimators_are_the_library_estimators():
+    assert fmu_names("estimator") == sorted(ESTIMATORS)
+    for name in fmu_names("estimator"):
+        assert CATALOGUE[name].model_class is ESTIMATORS[name]
+
+
+def test_pyproject_installs_every_wrapper():
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert sorted(config["tool"]["setuptools"]["py-modules"]) == sorted(s.module for s in CATALOGUE.values())
+
+
+@pytest.mark.parametrize("name", ["VehiclePlant", "Park2018Observer", "StabilityController"])
+def test_an_fmu_bundles_only_what_runs_inside_it(name):
+    files = {str(p.relative_to(PACKAGE_DIR)) for p in bundled_files(CATALOGUE[name])}
+    assert not any(f.startswith(("cosim", "studies", "cli", "__main__")) for f in files)
+    assert not {"fmi/build.py", "fmi/bundle.py", "fmi/docs.py"} & files
+    assert {"fmi/slave.py", "fmi/catalogue.py", "signals.py", "vehicles/pi2011_suv.toml", "plant/vehicle.py",
+            "estimators/park2018.py", "control/dyc.py"} <= files
+
+
+def test_a_non_editable_install_lists_and_builds_every_fmu(tmp_path):
+    """``pip install .`` into a folder, then list and build the FMUs from there, with nothing of the
+    source tree on the path (``python -S``: no site-packages .pth, so no editable finder)."""
+    import shutil
+
+    source = tmp_path / "source"                     # a clean copy: setuptools builds in the source tree
+    shutil.copytree(ROOT / "fmu_src", source / "fmu_src",
+                    ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy2(ROOT / name, source / name)
+    target = tmp_path / "site"
+    proc = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "--quiet",
+                           "--target", str(target), str(source)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    site = sysconfig.get_paths()["purelib"]
+    env = {"PYTHONPATH": f"{target}:{site}", "PATH": "/usr/bin:/bin", "HOME": str(tmp_path)}
+    code = ("import sideslip, sys; from sideslip.fmi.catalogue import fmu_names; "
+            "from sideslip.fmi.build import build_fmus; print(sideslip.__file__); print(' '.join(fmu_names())); "
+            "build_fmus(None, sys.argv[1], log=lambda m: None)")
+    out = subprocess.run([sys.executable, "-S", "-c", code, str(tmp_path / "fmus")], capture_output=True, text=True,
+                         cwd=tmp_path, env=env, timeout=900)
+    assert out.returncode == 0, out.stderr
+    installed, names = out.stdout.splitlines()[:2]
+    assert installed.startswith(str(target)) and names.split() == fmu_names()
+    for name in fmu_names():
+        with zipfile.ZipFile(tmp_path / "fmus" / f"{name}.fmu") as z:
+            assert z.testzip() is None
+            assert f"resources/{CATALOGUE[name].module}.py" in z.namelist()
+            assert re.search(r'modelIdentifier="%s"' % name, z.read("modelDescription.xml").decode())

@@ -9,10 +9,12 @@ import numpy as np
 import pytest
 
 from sideslip.cosim.libcosim_master import libcosim_available, run_libcosim, run_libcosim_ssp
-from sideslip.cosim.master import CoSimulation, MasterError
-from sideslip.cosim.metrics import trajectory_difference
-from sideslip.cosim.runner import run_scenario, scenario_components
-from sideslip.cosim.scenarios import get_scenario
+from sideslip.cosim.assembly import MasterError
+from sideslip.cosim.master import CoSimulation
+from sideslip.studies.metrics import trajectory_difference
+from sideslip.cosim.assembly import scenario_components
+from sideslip.studies.runs import run_scenario
+from sideslip.scenarios import get_scenario
 from sideslip.cosim.ssp import NS
 
 pytestmark = pytest.mark.skipif(not libcosim_available(), reason="libcosimpy is not installed")

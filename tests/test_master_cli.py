@@ -7,10 +7,12 @@ import sys
 import numpy as np
 import pytest
 
-from sideslip.cosim.master import Component, CoSimulation, MasterError
-from sideslip.cosim.metrics import estimate_metrics, format_table, scenario_summary, wrap
-from sideslip.cosim.runner import run_scenario, scenario_components
-from sideslip.cosim.scenarios import get_scenario
+from sideslip.cosim.assembly import Component, MasterError
+from sideslip.cosim.master import CoSimulation
+from sideslip.studies.metrics import estimate_metrics, format_table, scenario_summary, wrap
+from sideslip.cosim.assembly import scenario_components
+from sideslip.studies.runs import run_scenario
+from sideslip.scenarios import get_scenario
 from sideslip.params import build
 from sideslip.plant.driver import Driver, DriverConfig
 from sideslip.plant.loop import run_loop

@@ -1,16 +1,17 @@
 """The papers' tables with the FMUs in closed loop: the figures reached, each with the margin stated.
 
-The reached values (README, "Estimator accuracy") are measured with seeded sensors, so a run
+The reached values (docs/accuracy.md) are measured with seeded sensors, so a run
 is deterministic on one machine; the margins cover floating-point differences between
-machines and small, deliberate retuning.  Where a target of the issue is met the test asserts
-the target itself; where it is missed (documented in the README with the evidence) the test
+machines and small, deliberate retuning.  Where a target is met the test asserts
+the target itself; where it is missed (documented in docs/accuracy.md with the evidence) the test
 pins the reached value so a regression shows.
 """
 import math
 
 import pytest
 
-from sideslip.cosim import paper_tables as pt
+from sideslip.studies.papers import kim2016, nguyen2012, park2018, pi2011, yoon2014
+from sideslip.studies.runs import run_jobs
 
 MARGIN = 1.15
 """Reached figures may grow by 15 % before a test fails."""
@@ -21,7 +22,7 @@ PARK_REACHED = {1: 0.172, 2: 0.067, 3: 0.070, 4: 0.308, 5: 0.482}
 
 @pytest.fixture(scope="module")
 def park(fmu_dir):
-    return pt.park2018_accuracy(fmu_dir)
+    return park2018.park2018_accuracy(fmu_dir)
 
 
 def test_park2018_integrated_observer_meets_table3_rms_on_cases_2_to_5(park):
@@ -32,13 +33,13 @@ def test_park2018_integrated_observer_meets_table3_rms_on_cases_2_to_5(park):
 def test_park2018_reached_figures(park):
     for case, reached in PARK_REACHED.items():
         assert park[case]["integrated"]["rms"] <= MARGIN * reached, case
-    # case 1 (3 Hz steering) misses the paper's 0.063 deg: README, "Park 2018: where it misses"
+    # case 1 (3 Hz steering) misses the paper's 0.063 deg: docs/accuracy.md, "Park 2018: where it misses"
     assert park[1]["integrated"]["rms"] > park[1]["paper"]["rms"]
 
 
 def test_park2018_integrated_observer_against_its_sub_filters(park):
     """Better than each sub-filter on the spin-out (case 5), better than the bicycle EKF on cases 1, 2 and
-    4, better than the kinematic EKF on case 3; the rest is the README's documented miss."""
+    4, better than the kinematic EKF on case 3; the rest is the documented miss (docs/accuracy.md)."""
     row = park[5]
     assert row["integrated"]["rms"] < min(row["bicycle EKF"]["rms"], row["kinematic EKF"]["rms"])
     for case in (1, 2, 4):
@@ -50,12 +51,12 @@ def test_park2018_integrated_observer_against_its_sub_filters(park):
 
 
 def test_park2018_table_renders(park):
-    text = pt.format_park2018_accuracy(park)
+    text = park2018.format_park2018_accuracy(park)
     assert text.count("\n") == 6 and "0.063 / 0.218" in text
 
 
 def test_park2018_gps_outage_in_case3(fmu_dir):
-    res = pt.park2018_gps_outage(fmu_dir, "park2018_case3", (15.0, 20.0))
+    res = park2018.park2018_gps_outage(fmu_dir, "park2018_case3", (15.0, 20.0))
     assert res["gps_valid_during"] == 0.0
     out = res["beta_hat"]
     assert out["rms_outage"] <= MARGIN * 0.087 and out["max_outage"] <= MARGIN * 0.279
@@ -67,7 +68,7 @@ def test_park2018_gps_outage_in_case3(fmu_dir):
 
 
 def test_kim2016_table3_better_on_all_and_no_false_alarm(fmu_dir):
-    table = pt.kim2016_accuracy(fmu_dir)
+    table = kim2016.kim2016_accuracy(fmu_dir)
     reached = {"kim2016_track_40": {"beta": 0.0016, "yaw_rate": 0.0133, "delta": 0.0037},
                "kim2016_track_80": {"beta": 0.0011, "yaw_rate": 0.0127, "delta": 0.0030}}
     for name, row in table.items():
@@ -79,7 +80,7 @@ def test_kim2016_table3_better_on_all_and_no_false_alarm(fmu_dir):
 
 
 def test_kim2016_steering_fault_detection_delay(fmu_dir):
-    rows = pt.kim2016_fault_detection(fmu_dir)
+    rows = kim2016.kim2016_fault_detection(fmu_dir)
     assert not any(r["flagged_before_fault"] for r in rows)
     by = {(r["scenario"], r["mode"], r["offset"]): r for r in rows}
     assert by[("kim2016_track_80", "offset", 0.08)]["delay_s"] <= MARGIN * 0.75
@@ -97,7 +98,7 @@ def test_parallel_runs_work_after_fmus_were_loaded_in_this_process(harness, fmu_
     harness("Park2018Observer")
     assert any(p.endswith("resources") for p in sys.path)
     job = ("park2018_case2", ("Park2018Observer",), None, None, ("Park2018Observer.beta_hat",), 0.5)
-    (m1, a1), (m2, a2) = pt.run_jobs([job, job], fmu_dir, workers=2)
+    (m1, a1), (m2, a2) = run_jobs([job, job], fmu_dir, workers=2)
     assert (a1["Park2018Observer.beta_hat"] == a2["Park2018Observer.beta_hat"]).all()
     assert m1["summary"]["duration"] == pytest.approx(0.5)
 
@@ -105,8 +106,8 @@ def test_parallel_runs_work_after_fmus_were_loaded_in_this_process(harness, fmu_
 # ---------------------------------------------------------------- Estimators II
 def test_nguyen2012_table3(fmu_dir):
     """DACMRKF at or below Table III on both; the ranking DACMRKF < MRKF < SRKF holds on the cornering
-    test; on the lane change the DACMRKF is the worst (README, "Nguyen 2012: where it misses")."""
-    t = pt.nguyen2012_accuracy(fmu_dir)
+    test; on the lane change the DACMRKF is the worst (docs/accuracy.md, "Nguyen 2012: where it meets and misses")."""
+    t = nguyen2012.nguyen2012_accuracy(fmu_dir)
     lc, co = t["nguyen2012_lanechange"]["rmsd"], t["nguyen2012_cornering"]["rmsd"]
     assert lc["dacmrkf"] <= 0.38e-2 and co["dacmrkf"] <= 0.41e-2
     assert co["dacmrkf"] < co["mrkf"] < co["srkf"]
@@ -121,8 +122,8 @@ def test_nguyen2012_table3(fmu_dir):
 
 
 def test_pi2011_table4(fmu_dir):
-    """Better than both baselines on every road, max and mean; Table 4's values are not reached (README)."""
-    t = pt.pi2011_accuracy(fmu_dir)
+    """Better than both baselines on every road, max and mean; Table 4's values are not reached (docs/accuracy.md)."""
+    t = pi2011.pi2011_accuracy(fmu_dir)
     reached = {"pi2011_high": (7.4, 2.51), "pi2011_medium": (14.4, 3.08), "pi2011_low": (37.0, 9.14)}
     for road, row in t.items():
         for key in ("max", "mean"):
@@ -137,7 +138,7 @@ YOON_SUBSET = ("yoon2014_dlc_ice", "yoon2014_slalom_asphalt_banked", "yoon2014_j
 def test_yoon2014_overall_rms_and_ablations(fmu_dir):
     """Four of the sixteen runs (every maneuver, both roads, flat and banked; the CLI runs all sixteen):
     overall RMS below the 1.3 deg target, each ablation worse, at Table II's and Table III's levels."""
-    t = pt.yoon2014_accuracy(fmu_dir, scenarios=YOON_SUBSET)
+    t = yoon2014.yoon2014_accuracy(fmu_dir, scenarios=YOON_SUBSET)
     reached = {"table2": 0.132, "[0.05,1] at 20%": 0.445, "[0.05,1] at 40%": 0.926}
     for level, res in t.items():
         o = res["overall"]

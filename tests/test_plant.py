@@ -9,8 +9,10 @@ from sideslip.plant.driver import Driver, DriverConfig
 from sideslip.plant.loop import run_loop
 from sideslip.plant.maneuvers import maneuver_spec
 from sideslip.plant.tires import dugoff, friction, theoretical_slip
+from sideslip.plant.dynamics import PlantInputs, PlantModel
 from sideslip.plant.vehicle import PlantConfig, St, VehiclePlant
-from sideslip.vehicles import GRAVITY, load_vehicle
+from sideslip.constants import GRAVITY
+from sideslip.vehicles import load_vehicle
 
 VEHICLES = [("pi2011_suv", 20.0), ("park2018_sonata", 20.0), ("kim2016_asm", 20.0), ("nguyen2012_coms", 8.0)]
 
@@ -227,3 +229,68 @@ def test_reversing_and_extreme_inputs_stay_finite():
     assert plant.output_dict()["vx"] < -0.1
     with pytest.raises(ValueError):
         plant.step(1e-3, delta_f=math.nan)
+
+
+# ---------------------------------------------------------------- the dynamics as a pure function
+GOLDEN_X = (18.0, 0.7, 0.35, 0.03, 0.1, 52.0, 50.5, 51.0, 53.5, 120.0, -40.0, 0.5, -1.2, 5.0)
+"""A state with every term of the derivative active: slipping wheels (driving and braking), roll,
+roll rate, lagged accelerations, a heading off the axes."""
+GOLDEN_U = PlantInputs(delta_f=0.05, T_drive=600.0, T_brake=200.0, mu=0.7, bank_angle=0.04, F_wind_y=120.0,
+                       M_wind_z=-30.0)
+GOLDEN_DT = 150.0
+GOLDEN_DX = {
+    ("pi2011_suv", "eps_v=0.02"): (
+        0.647641113206748, -9.316944269022732, -0.777295787792077, 0.1, -4.034867624140544, -370.5432449224919,
+        384.9388661075544, 38.842884171710786, -115.9659393477893, 15.460888237003768, 9.243967488198916, 0.35,
+        160.2641113206748, -762.4648900651852),
+    ("park2018_sonata", ""): (
+        -5.500542487980564, -10.601985619100251, -1.0133066129112809, 0.1, -7.451308171537282, 560.8767503809717,
+        1472.4718353432966, 386.2019389243862, 702.6763211149773, 15.460888237003768, 9.243967488198916, 0.35,
+        -454.5542487980564, -890.9690250729371),
+}
+"""dx/dt at GOLDEN_X, GOLDEN_U and a motor torque difference of 150 N m, recorded from the plant's
+right-hand side before it became :class:`PlantModel` (the SUV with Dugoff's velocity effect on, the
+Sonata in wheel spin on its 70/30 front drive)."""
+
+
+@pytest.mark.parametrize("vehicle, overrides", list(GOLDEN_DX))
+def test_dynamics_golden_values(vehicle, overrides):
+    dx = PlantModel(load_vehicle(vehicle, overrides)).f(GOLDEN_X, GOLDEN_U, GOLDEN_DT)
+    np.testing.assert_allclose(dx, GOLDEN_DX[vehicle, overrides], rtol=1e-12, atol=1e-12)
+
+
+def test_dynamics_are_built_from_the_tire_module(monkeypatch):
+    """The derivative calls the tested slip, friction and force functions of the tire module, once per wheel."""
+    import sideslip.plant.dynamics as dyn
+
+    calls = {"theoretical_slip": 0, "friction": 0, "dugoff": 0}
+    for name in calls:
+        original = getattr(dyn, name)
+
+        def counting(*a, _f=original, _n=name):
+            calls[_n] += 1
+            return _f(*a)
+        monkeypatch.setattr(dyn, name, counting)
+    dx = PlantModel(load_vehicle("pi2011_suv", "eps_v=0.02")).f(GOLDEN_X, GOLDEN_U, GOLDEN_DT)
+    assert calls == {"theoretical_slip": 4, "friction": 4, "dugoff": 4}
+    np.testing.assert_allclose(dx, GOLDEN_DX["pi2011_suv", "eps_v=0.02"], rtol=1e-12, atol=1e-12)
+
+
+def test_the_plant_integrates_the_pure_dynamics():
+    """One RK4 step of VehiclePlant equals RK4 written out on PlantModel.f (motor lag off, tau = 0: the
+    torque difference jumps to its command after the step's first stage, which sees the old one, 0)."""
+    v = load_vehicle("pi2011_suv", "motor_tau=0")
+    plant = VehiclePlant(PlantConfig(vx0=15.0), vehicle=v)
+    model = PlantModel(v)
+    u = PlantInputs(delta_f=0.03, T_drive=200.0, mu=0.8)
+    h, mz = 1e-3, 400.0
+    dT = min(max(mz * v.R_w / v.t_f, -v.motor_T_max), v.motor_T_max)
+    x = list(plant.x)
+    k1 = model.f(x, u, 0.0)
+    k2 = model.f([a + 0.5 * h * b for a, b in zip(x, k1)], u, dT)
+    k3 = model.f([a + 0.5 * h * b for a, b in zip(x, k2)], u, dT)
+    k4 = model.f([a + h * b for a, b in zip(x, k3)], u, dT)
+    expected = [a + h / 6 * (b1 + 2 * (b2 + b3) + b4) for a, b1, b2, b3, b4 in zip(x, k1, k2, k3, k4)]
+    plant.step(h, delta_f=0.03, T_drive=200.0, Mz_dyc=mz, mu=0.8)
+    assert plant.n_substeps == 1
+    np.testing.assert_allclose(plant.x, expected, rtol=1e-14, atol=1e-14)

@@ -1,16 +1,16 @@
 """Closed-loop stability control with the FMUs: FMVSS 126 outcomes and the brake-in-turn spin-out.
 
 The full evaluation (22 FMVSS 126 runs per beta source, every estimator) is
-``python -m sideslip control`` (README "Stability control"); this test runs the amplitudes that
+``python -m sideslip control`` (docs, "Stability control"); this test runs the amplitudes that
 decide the outcome: 3.5A (the first the uncontrolled SUV fails), 5A (the first with the 1.83 m
 displacement criterion, the tightest for the controlled car: 1.89 m measured on the truth) and 6.5A.
 """
 import pytest
 
-from sideslip.cosim.control_eval import FMVSS_FAMILY, control_evaluation
+from sideslip.studies.control_eval import FMVSS_FAMILY, control_evaluation
 
 BEST = ("Yoon2014DualKF", "Pi2011FuzzyEKF")
-"""The two estimators with the smallest sideslip error in the FMVSS 126 runs (0.20 and 0.23 deg RMS, README)."""
+"""The two estimators with the smallest sideslip error in the FMVSS 126 runs (0.20 and 0.23 deg RMS, docs/control.md)."""
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,6 @@
-"""``python -m sideslip``: see :mod:`sideslip.cosim.cli`."""
+"""``python -m sideslip``: see :mod:`sideslip.cli`."""
 import sys
 
-from sideslip.cosim.cli import main
+from sideslip.cli import main
 
 sys.exit(main())

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BicycleModel"]
+__all__ = ["BicycleModel", "axle_forces"]
 
 
 @dataclass(frozen=True)
@@ -60,8 +60,8 @@ class BicycleModel:
 
     @property
     def understeer_gradient(self) -> float:
-        """Understeer gradient K = m (l_r C_r - l_f C_f) / (l C_f C_r) [rad s2/m]."""
-        return self.m * (self.l_r * self.C_r - self.l_f * self.C_f) / (self.l * self.C_f * self.C_r)
+        """Understeer gradient K = m (l_r / C_f - l_f / C_r) / l [rad s2/m] (Pi 2011 eq 32)."""
+        return self.m * (self.l_r / self.C_f - self.l_f / self.C_r) / self.l
 
     @property
     def characteristic_speed(self) -> float:
@@ -86,3 +86,31 @@ class BicycleModel:
         """
         den = self.l + self.understeer_gradient * vx * vx
         return ((self.l_r - self.m * self.l_f * vx * vx / (self.l * self.C_r)) / den, vx / den)
+
+
+def axle_forces(m: float, I_z: float, l_f: float, l_r: float, a_y: float, yaw_acc: float,
+                M_z: float = 0.0) -> tuple[float, float]:
+    """Axle lateral forces ``(F_yf, F_yr)`` [N] from the lateral acceleration and the yaw acceleration.
+
+    The single-track force and moment balances ``m a_y = F_yf + F_yr`` and
+    ``I_z dr/dt = l_f F_yf - l_r F_yr + M_z`` solved for the two forces (Park 2018 eq 19;
+    Pi 2011 eqs 23-24, with the yaw moment ``M_z`` of a stability controller):
+    ``F_yf = (m l_r a_y + I_z dr/dt - M_z) / l``, ``F_yr = (m l_f a_y - I_z dr/dt + M_z) / l``.
+
+    Parameters
+    ----------
+    m : float
+        Mass [kg].
+    I_z : float
+        Yaw inertia [kg m2].
+    l_f, l_r : float
+        CG to front / rear axle [m].
+    a_y : float
+        Lateral acceleration of the CG [m/s2].
+    yaw_acc : float
+        Yaw acceleration [rad/s2].
+    M_z : float
+        External yaw moment, e.g. from in-wheel motors [N m].
+    """
+    l = l_f + l_r
+    return ((m * l_r * a_y + I_z * yaw_acc - M_z) / l, (m * l_f * a_y - I_z * yaw_acc + M_z) / l)

@@ -4,7 +4,7 @@ One place for the field so that the sensors FMU and an estimator that uses the m
 (Yoon & Peng 2014) agree by default: a mismatch of the inclination between the two reads as a
 roll angle of the same size (and, through ``g sin(roll)``, as a lateral-acceleration bias).
 The closed-loop runner also hands a scenario's field to the estimators, as it hands them the
-vehicle (:func:`sideslip.cosim.runner.scenario_params`), the way a real magnetometer is
+vehicle (:func:`sideslip.scenarios.scenario_params`), the way a real magnetometer is
 calibrated to the local field.
 """
 from __future__ import annotations

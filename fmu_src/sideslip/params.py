@@ -16,7 +16,7 @@ from typing import Any, Iterable, Mapping
 from .units import QUANTITIES
 
 __all__ = ["ParamInfo", "ParameterError", "param", "check", "declared_fields", "build", "parse_bool",
-           "parse_assignments", "describe_range"]
+           "parse_assignment", "parse_assignments", "describe_range"]
 
 
 class ParameterError(ValueError):
@@ -222,8 +222,24 @@ def build(cls, values: Mapping[str, Any] | None = None, prefix: str = "", **kwar
         raise
 
 
+def parse_assignment(item: str, name: str = "overrides", allowed: str = "key=value") -> tuple[str, str]:
+    """Split one ``"key=value"`` item into ``("key", "value")`` (both stripped); the value may hold
+    further ``=`` signs.
+
+    Raises
+    ------
+    ParameterError
+        When the item has no ``=`` or an empty key.
+    """
+    key, sep, val = item.partition("=")
+    if not sep or not key.strip():
+        raise ParameterError(name, item, allowed)
+    return key.strip(), val.strip()
+
+
 def parse_assignments(text: str, name: str = "overrides") -> dict[str, str]:
-    """Parse ``"a=1, b=2.5; c=x"`` into ``{"a": "1", "b": "2.5", "c": "x"}``.
+    """Parse ``"a=1, b=2.5; c=x"`` into ``{"a": "1", "b": "2.5", "c": "x"}`` (items separated by
+    commas or semicolons, each read by :func:`parse_assignment`).
 
     Raises
     ------
@@ -232,11 +248,7 @@ def parse_assignments(text: str, name: str = "overrides") -> dict[str, str]:
     """
     out: dict[str, str] = {}
     for item in text.replace(";", ",").split(","):
-        item = item.strip()
-        if not item:
-            continue
-        if "=" not in item:
-            raise ParameterError(name, item, "comma-separated key=value items")
-        key, val = item.split("=", 1)
-        out[key.strip()] = val.strip()
+        if item.strip():
+            key, val = parse_assignment(item.strip(), name, "comma-separated key=value items")
+            out[key] = val
     return out

@@ -13,8 +13,9 @@ from dataclasses import dataclass
 
 from .units import QUANTITIES
 
-__all__ = ["Signal", "SIGNALS", "signal", "PLANT_INPUTS", "PLANT_OUTPUTS", "SENSOR_OUTPUTS",
-           "DRIVER_OUTPUTS", "ESTIMATOR_COMMON_OUTPUTS", "CONTROLLER_INPUTS", "CONTROLLER_OUTPUTS"]
+__all__ = ["Signal", "SIGNALS", "signal", "WHEELS", "WHEEL_SPEEDS", "WHEEL_SPEEDS_M", "PLANT_INPUTS",
+           "PLANT_OUTPUTS", "SENSOR_INPUTS", "SENSOR_OUTPUTS", "DRIVER_INPUTS", "DRIVER_OUTPUTS",
+           "ESTIMATOR_COMMON_OUTPUTS", "CONTROLLER_INPUTS", "CONTROLLER_OUTPUTS", "LQR_OUTPUTS"]
 
 _INF = math.inf
 
@@ -61,7 +62,10 @@ def _bool(name, description, start=False):
     return Signal(name, "Dimensionless", description, "Boolean", start=float(start))
 
 
-_WHEELS = (("fl", "front-left"), ("fr", "front-right"), ("rl", "rear-left"), ("rr", "rear-right"))
+WHEELS = ("fl", "fr", "rl", "rr")
+"""The four wheels, in the order of every per-wheel signal and state: front-left, front-right,
+rear-left, rear-right."""
+_WHEELS = tuple(zip(WHEELS, ("front-left", "front-right", "rear-left", "rear-right")))
 _PI = math.pi
 
 _ENTRIES = [
@@ -199,16 +203,25 @@ def signal(name: str) -> Signal:
         raise KeyError(f"'{name}' is not in the signal catalogue") from None
 
 
-_W = [w for w, _ in _WHEELS]
+# ---- port groups: the interfaces of the models, by catalogue name -------------------------
+WHEEL_SPEEDS = tuple(f"omega_{w}" for w in WHEELS)
+"""True wheel spin rates (plant outputs), in :data:`WHEELS` order."""
+WHEEL_SPEEDS_M = tuple(f"omega_{w}_m" for w in WHEELS)
+"""Measured wheel spin rates (sensor outputs, estimator inputs), in :data:`WHEELS` order."""
 PLANT_INPUTS = ("delta_f", "T_drive", "T_brake", "Mz_dyc", "mu", "bank_angle", "F_wind_y", "M_wind_z")
 PLANT_OUTPUTS = ("vx", "vy", "yaw_rate", "beta", "yaw", "roll", "roll_rate", "ax", "ay", "X", "Y",
-                 *[f"omega_{w}" for w in _W], "Fy_f", "Fy_r", *[f"Fz_{w}" for w in _W],
-                 "alpha_f", "alpha_r", "Mz_act")
-SENSOR_OUTPUTS = ("ax_m", "ay_m", "yaw_rate_m", "roll_rate_m", "delta_m", *[f"omega_{w}_m" for w in _W],
+                 *WHEEL_SPEEDS, "Fy_f", "Fy_r", *[f"Fz_{w}" for w in WHEELS], "alpha_f", "alpha_r", "Mz_act")
+SENSOR_INPUTS = ("ax", "ay", "yaw_rate", "roll_rate", "delta_f", *WHEEL_SPEEDS, "vx", "vy", "yaw", "roll")
+"""Plant truth the sensor models sample."""
+SENSOR_OUTPUTS = ("ax_m", "ay_m", "yaw_rate_m", "roll_rate_m", "delta_m", *WHEEL_SPEEDS_M,
                   "gps_ve", "gps_vn", "gps_speed", "gps_course", "gps_fresh", "gps_valid",
                   "mag_x", "mag_y", "mag_z", "delta_fault_active", "mag_disturbance_active")
+DRIVER_INPUTS = ("vx", "X", "Y", "yaw")
+"""Plant truth the maneuver driver steers and controls the speed by."""
 DRIVER_OUTPUTS = ("delta_f", "T_drive", "T_brake", "mu", "bank_angle", "F_wind_y", "M_wind_z",
                   "delta_sw", "v_ref")
 ESTIMATOR_COMMON_OUTPUTS = ("beta_hat", "beta_hat_std", "vx_hat", "vy_hat", "yaw_rate_hat", "valid")
 CONTROLLER_INPUTS = ("delta_m", "vx_hat", "beta_hat", "yaw_rate_m")
 CONTROLLER_OUTPUTS = ("Mz_cmd", "beta_ref", "yaw_rate_ref")
+LQR_OUTPUTS = CONTROLLER_OUTPUTS + ("Mz_ff", "Mz_fb")
+"""Outputs of the LQR direct-yaw-moment controller: the contract's plus the command's two parts."""

@@ -2,12 +2,17 @@
 
 One table, used by the signal catalogue, the parameter declarations and the FMU toolkit
 (which writes it as ``UnitDefinitions``/``TypeDefinitions`` into every modelDescription).
-Angles are always radians on a port; degrees exist only as a *display* unit.
+Angles are always radians on a port; degrees exist only as a *display* unit.  Noise
+parameters follow one convention: a variance is declared as a variance, with the square of
+its signal's unit (``rad2``, ``N2``, ``m2/s2``), and a standard deviation with the signal's own
+quantity; LQR weights carry the inverse square of the unit they weigh.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+
+from .constants import STANDARD_GRAVITY
 
 __all__ = ["Unit", "UNITS", "QUANTITIES", "unit_of_quantity"]
 
@@ -39,7 +44,7 @@ UNITS: dict[str, Unit] = {u.name: u for u in (
     Unit("Hz", {"s": -1}),
     Unit("m", {"m": 1}),
     Unit("m/s", {"m": 1, "s": -1}, (("km/h", 3.6),)),
-    Unit("m/s2", {"m": 1, "s": -2}, (("g", 1.0 / 9.80665),)),
+    Unit("m/s2", {"m": 1, "s": -2}, (("g", 1.0 / STANDARD_GRAVITY),)),
     Unit("rad", {"rad": 1}, (("deg", _DEG),)),
     Unit("rad/s", {"rad": 1, "s": -1}, (("deg/s", _DEG),)),
     Unit("rad/s2", {"rad": 1, "s": -2}, (("deg/s2", _DEG),)),
@@ -57,6 +62,15 @@ UNITS: dict[str, Unit] = {u.name: u for u in (
     Unit("s/m", {"m": -1, "s": 1}),
     Unit("1/s", {"s": -1}),
     Unit("1/s2", {"s": -2}),
+    # variances (noise covariances) and LQR weights carry the unit of what they weigh
+    Unit("rad2", {"rad": 2}),
+    Unit("rad2/s2", {"rad": 2, "s": -2}),
+    Unit("1/rad2", {"rad": -2}),
+    Unit("N2", {"kg": 2, "m": 2, "s": -4}),
+    Unit("m2/s2", {"m": 2, "s": -2}),
+    Unit("m2/s4", {"m": 2, "s": -4}),
+    Unit("s2/rad2", {"s": 2, "rad": -2}),
+    Unit("1/N2/m2", {"kg": -2, "m": -4, "s": 4}),
 )}
 
 # quantity (FMI declaredType name) -> unit
@@ -87,6 +101,17 @@ QUANTITIES: dict[str, str] = {
     "FrictionCoefficient": "1",
     "MagneticFluxRatio": "1",
     "Dimensionless": "1",
+    # covariances: a variance has the square of its signal's unit
+    "AngleVariance": "rad2",
+    "AngularVelocityVariance": "rad2/s2",
+    "NormalisedStiffnessVariance": "1/rad2",
+    "ForceVariance": "N2",
+    "VelocityVariance": "m2/s2",
+    "AccelerationVariance": "m2/s4",
+    # LQR weights: the inverse square of the unit of the error they weigh
+    "AngleWeight": "1/rad2",
+    "AngularVelocityWeight": "s2/rad2",
+    "TorqueWeight": "1/N2/m2",
 }
 
 

@@ -22,10 +22,10 @@ import math
 from dataclasses import dataclass
 
 from ..bicycle import BicycleModel
-from ..model import Model
-from ..params import check, param
-from ..signals import CONTROLLER_INPUTS, CONTROLLER_OUTPUTS
-from ..vehicles import VehicleParams, load_vehicle
+from ..model import SampledModel
+from ..params import ParameterError, check, param
+from ..signals import CONTROLLER_INPUTS, LQR_OUTPUTS
+from ..vehicles import VehicleConfig, VehicleParams
 from .feedforward import ScheduledFeedforward
 from .lqr import gain_schedule
 from .reference import ReferenceModel
@@ -34,19 +34,17 @@ __all__ = ["LqrDycConfig", "LqrDycController", "yaw_moment_limit"]
 
 
 @dataclass(frozen=True)
-class LqrDycConfig:
+class LqrDycConfig(VehicleConfig):
     """Parameters of :class:`LqrDycController` (the paper gives no numbers for any of them)."""
 
-    vehicle: str = param("pi2011_suv", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
-    vehicle_overrides: str = param("", "Dimensionless", "Vehicle parameter overrides, e.g. 'm=2000'")
     mu: float = param(1.0, "FrictionCoefficient", "Road friction for the yaw-rate limit of the reference and the "
                       "nominal cornering stiffness", ge=0.05, le=1.5)
     Ts_control: float = param(0.001, "Time", "Sample period of the controller", gt=0, le=0.1)
-    q_beta: float = param(1.0e10, "Dimensionless", "Weight of the sideslip error in eq 26 [1/rad2]", gt=0,
+    q_beta: float = param(1.0e10, "AngleWeight", "Weight of the sideslip error in eq 26", gt=0,
                           le=1e16)
-    q_gamma: float = param(3.0e8, "Dimensionless", "Weight of the yaw-rate error in eq 26 [s2/rad2]", gt=0,
+    q_gamma: float = param(3.0e8, "AngularVelocityWeight", "Weight of the yaw-rate error in eq 26", gt=0,
                            le=1e16)
-    q_N: float = param(1.0, "Dimensionless", "Weight of the yaw moment in eq 26 [1/(N m)2]", gt=0, le=1e16)
+    q_N: float = param(1.0, "TorqueWeight", "Weight of the yaw moment in eq 26", gt=0, le=1e16)
     tau_beta: float = param(0.15, "Time", "Lag of the sideslip reference (eq 21)", gt=0, le=5)
     tau_gamma: float = param(0.10, "Time", "Lag of the yaw-rate reference (eq 22)", ge=0, le=5)
     tau_ff: float = param(0.02, "Time", "Low-pass that makes the feed-forward of eq 24 proper", gt=0, le=1)
@@ -59,7 +57,6 @@ class LqrDycConfig:
     def __post_init__(self):
         check(self)
         if self.v_max <= self.v_min:
-            from ..params import ParameterError
             raise ParameterError("v_max", self.v_max, f"> v_min = {self.v_min:g} m/s")
 
 
@@ -69,7 +66,7 @@ def yaw_moment_limit(vehicle: VehicleParams) -> float:
     return vehicle.motor_T_max * track / vehicle.R_w
 
 
-class LqrDycController(Model):
+class LqrDycController(SampledModel):
     """Reference model + feed-forward + scheduled LQR + saturation (see module docstring).
 
     Parameters
@@ -81,11 +78,11 @@ class LqrDycController(Model):
 
     config_class = LqrDycConfig
     input_names = CONTROLLER_INPUTS
-    output_names = CONTROLLER_OUTPUTS + ("Mz_ff", "Mz_fb")
+    output_names = LQR_OUTPUTS
 
     def __init__(self, config: LqrDycConfig | None = None, vehicle: VehicleParams | None = None):
         self.config = cfg = config or LqrDycConfig()
-        self.vehicle = vehicle or load_vehicle(cfg.vehicle, cfg.vehicle_overrides)
+        self.vehicle = vehicle or cfg.vehicle_params()
         self.model = BicycleModel.from_vehicle(self.vehicle, cfg.mu, nominal=True)
         self.Ts = cfg.Ts_control
         self.Mz_max = cfg.Mz_max if cfg.Mz_max > 0 else yaw_moment_limit(self.vehicle)
@@ -97,7 +94,7 @@ class LqrDycController(Model):
     def reset(self) -> None:
         """Zero command, references and filter state."""
         self._reset_clock()
-        self._samples = 0
+        self._reset_samples()
         self.reference.reset()
         self.ff.reset()
         self.Mz = self.Mz_ff = self.Mz_fb = 0.0
@@ -124,8 +121,7 @@ class LqrDycController(Model):
         """
         t = self._tick(h)
         ran = False
-        while (self._samples + 1) * self.Ts <= t + 1e-9 * self.Ts:
-            self._samples += 1
+        for _ in range(self._samples_due(t)):
             if math.isfinite(delta_m + vx_hat + beta_hat + yaw_rate_m):
                 self._sample(delta_m, vx_hat, beta_hat, yaw_rate_m)
             else:

@@ -16,11 +16,9 @@ from __future__ import annotations
 import math
 
 from ..bicycle import BicycleModel
+from ..constants import STANDARD_GRAVITY
 
-__all__ = ["ReferenceModel", "G"]
-
-G = 9.80665
-"""Standard gravity [m/s2]."""
+__all__ = ["ReferenceModel"]
 
 
 class ReferenceModel:
@@ -52,7 +50,7 @@ class ReferenceModel:
         """Steady-state ``(beta, gamma)`` targets [rad, rad/s] for steering ``delta`` at ``vx``."""
         k_beta, k_gamma = self.model.steady_state_gains(vx)          # eqs 21-22 without the lags
         beta, gamma = k_beta * delta, k_gamma * delta
-        limit = self.mu * G / vx
+        limit = self.mu * STANDARD_GRAVITY / vx
         if abs(gamma) > limit:
             scale = limit / abs(gamma)
             beta, gamma = beta * scale, gamma * scale

@@ -15,7 +15,7 @@ from ..estimators import ESTIMATORS
 from ..model import Model
 from ..params import build, declared_fields, param
 from ..signals import ESTIMATOR_COMMON_OUTPUTS, SENSOR_OUTPUTS
-from ..vehicles import VehicleParams, load_vehicle
+from ..vehicles import VehicleParams
 from .dyc import LqrDycConfig, LqrDycController
 
 __all__ = ["StabilityControllerConfig", "StabilityController", "STABILITY_INPUTS"]
@@ -45,7 +45,7 @@ class StabilityController(Model):
 
     def __init__(self, config: StabilityControllerConfig | None = None, vehicle: VehicleParams | None = None):
         self.config = cfg = config or StabilityControllerConfig()
-        self.vehicle = vehicle or load_vehicle(cfg.vehicle, cfg.vehicle_overrides)
+        self.vehicle = vehicle or cfg.vehicle_params()
         est_cls = ESTIMATORS[cfg.estimator]
         names = {f.name for f, _ in declared_fields(est_cls.config_class)}
         values = {k: getattr(cfg, k) for k in ("vehicle", "vehicle_overrides", "mu") if k in names}

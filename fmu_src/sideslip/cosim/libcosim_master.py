@@ -6,10 +6,10 @@ are transferred to the connected inputs.  With ``scheme="jacobi"`` the project's
 (:class:`~sideslip.cosim.master.CoSimulation`) does exactly that, so the two must give the
 same trajectories; the test suite checks it to 1e-9.
 
-The wiring is the fmpy master's (:func:`~sideslip.cosim.master.resolve_connections`):
+The wiring is the fmpy master's (:func:`~sideslip.cosim.assembly.resolve_connections`):
 components, parameters (start values set before initialisation) and connections by name.
 Recording uses libcosim's last-value observer after every step, so the results have the
-layout of :class:`~sideslip.cosim.master.Results` (``time`` and ``<instance>.<variable>``).
+layout of :class:`~sideslip.cosim.results.Results` (``time`` and ``<instance>.<variable>``).
 libcosim initialises inside its first step, so the outputs right after initialisation
 cannot be observed: the rows start at ``t = step`` (the fmpy master's start at 0).
 
@@ -24,8 +24,10 @@ import numpy as np
 from fmpy import read_model_description
 
 from ..fmi.build import DEFAULT_OUT
-from ..params import parse_bool
-from .master import Component, MasterError, Results, fmu_paths, interface_of, resolve_connections
+from ..fmi.variables import fmi_value
+from .assembly import MasterError, fmu_paths, interface_of, resolve_connections
+from .results import Results
+from .ssp import read_experiment
 
 __all__ = ["run_libcosim", "run_libcosim_ssp", "libcosim_available"]
 
@@ -62,16 +64,8 @@ def _require():
 
 def _set_start(execution, index: int, var, key: str, value) -> None:
     """Parameter ``key = value`` as a libcosim initial value of the right type."""
-    vr = var.valueReference
-    if var.type == "Real":
-        ok = execution.real_initial_value(index, vr, float(value))
-    elif var.type == "Integer":
-        ok = execution.integer_initial_value(index, vr, int(value))
-    elif var.type == "Boolean":
-        ok = execution.boolean_initial_value(index, vr, parse_bool(key, value))
-    else:
-        ok = execution.string_initial_value(index, vr, str(value))
-    if not ok:
+    setter = getattr(execution, f"{var.type.lower()}_initial_value")
+    if not setter(index, var.valueReference, fmi_value(var.type, value, key)):
         raise MasterError(f"libcosim refused the initial value {key} = {value!r}: {_last_error()}")
 
 
@@ -159,9 +153,6 @@ def run_libcosim_ssp(ssp: str | Path, duration: float | None = None, step: float
     """
     import tempfile
     import zipfile
-    from xml.etree.ElementTree import parse
-
-    from .ssp import NS
 
     CosimExecution, _, CosimObserver = _require()
     ssp = Path(ssp)
@@ -171,18 +162,15 @@ def run_libcosim_ssp(ssp: str | Path, duration: float | None = None, step: float
             folder = Path(tmp)
             with zipfile.ZipFile(ssp) as z:
                 z.extractall(folder)
-        root = parse(folder / "SystemStructure.ssd").getroot()
-        exp = root.find("ssd:DefaultExperiment", NS)
-        algo = root.find("ssd:DefaultExperiment/ssd:Annotations/ssc:Annotation/osp:Algorithm/osp:FixedStepAlgorithm",
-                         NS)
+        start, stop, base_step = read_experiment(folder / "SystemStructure.ssd")
         if step is None:
-            if algo is None:
+            if base_step is None:
                 raise MasterError(f"{ssp}: no fixed step in the package; give step")
-            step = float(algo.get("baseStepSize"))
+            step = base_step
         if duration is None:
-            if exp is None or exp.get("stopTime") is None:
+            if stop is None:
                 raise MasterError(f"{ssp}: no DefaultExperiment stopTime; give duration")
-            duration = float(exp.get("stopTime")) - float(exp.get("startTime", 0.0))
+            duration = stop - start
         try:
             execution = CosimExecution.from_ssp_file(str(folder), step_size=int(round(step * NANO)))
         except AssertionError as exc:                 # libcosimpy reports a failed load this way

@@ -1,9 +1,8 @@
-"""The co-simulation master: several FMUs in closed loop through fmpy, fixed communication step.
+"""The fmpy master: several FMUs in closed loop through fmpy, fixed communication step.
 
-* Connections by contract name: an input takes the output of the same name from another
-  component (plus the alias ``Mz_cmd -> Mz_dyc``); explicit ``connections`` override and
-  resolve ambiguity (e.g. which estimator feeds the controller).  Unconnected inputs keep
-  their start values and are listed in the run metadata.
+* Components and connections as :mod:`sideslip.cosim.assembly` resolves them (by contract
+  name, explicit connections override); unconnected inputs keep their start values and are
+  listed in the run metadata.
 * Gauss-Seidel in component order (default): each component gets the latest outputs of
   all others before its ``doStep``; with the order driver, plant, sensors, estimators,
   controller the sensors see the plant at the end of the step, the controller acts on the
@@ -26,7 +25,6 @@ import math
 import shutil
 import tempfile
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -34,132 +32,15 @@ from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
-from ..fmi.build import DEFAULT_OUT, ensure_fmus
-from ..params import parse_bool
+from ..fmi.build import DEFAULT_OUT
+from ..fmi.variables import fmi_value
+from .assembly import Component, MasterError, fmu_paths, interface_of, resolve_connections
+from .results import Results
 
-__all__ = ["Component", "CoSimulation", "Results", "MasterError", "INPUT_ALIASES", "SCHEMES", "Interface",
-           "interface_of", "resolve_connections", "fmu_paths"]
-
-INPUT_ALIASES = {"Mz_dyc": ("Mz_cmd",)}
-"""Input name -> output names that feed it besides the equal name (DESIGN.md renames)."""
+__all__ = ["CoSimulation", "SCHEMES"]
 
 _STATUS = ("ok", "warning", "discard", "error", "fatal", "pending")
 SCHEMES = ("gauss-seidel", "jacobi")
-
-
-class MasterError(RuntimeError):
-    """A co-simulation could not be set up or an FMU call failed."""
-
-
-@dataclass
-class Component:
-    """One FMU instance in a co-simulation.
-
-    Parameters
-    ----------
-    fmu : str
-        FMU name from the registry (``VehiclePlant``) or the path of an ``.fmu`` file.
-    name : str, optional
-        Instance name (default: the FMU name); record fields are ``<name>.<variable>``.
-    parameters : dict
-        Parameter values by variable name, set before initialisation.
-    """
-
-    fmu: str
-    name: str | None = None
-    parameters: dict = field(default_factory=dict)
-
-    def __post_init__(self):
-        if self.name is None:
-            self.name = Path(self.fmu).stem
-
-
-# ---------------------------------------------------------------------------------------- wiring
-@dataclass(frozen=True)
-class Interface:
-    """The ports of one instance: Real and Boolean outputs, inputs by name -> type."""
-
-    name: str
-    outputs_real: tuple
-    outputs_bool: tuple
-    inputs: dict
-
-
-def interface_of(name: str, md) -> Interface:
-    """Ports of instance ``name`` from an fmpy model description."""
-    outs = [v for v in md.modelVariables if v.causality == "output"]
-    return Interface(name, tuple(v.name for v in outs if v.type == "Real"),
-                     tuple(v.name for v in outs if v.type == "Boolean"),
-                     {v.name: v.type for v in md.modelVariables if v.causality == "input"})
-
-
-def resolve_connections(interfaces, explicit=()):
-    """Source of every input (see module docstring), shared by every master and the SSP export.
-
-    Parameters
-    ----------
-    interfaces : list of Interface
-        In component order.
-    explicit : iterable of (str, str)
-        ``("src_instance.output", "dst_instance.input")`` pairs overriding the match by name.
-
-    Returns
-    -------
-    links : dict
-        ``(instance, input) -> (source instance, output, "Real" | "Boolean")`` in component order.
-    unconnected : list of str
-        ``instance.input`` with no source (they keep their start values).
-
-    Raises
-    ------
-    MasterError
-        Unknown instance or port, ambiguous source, or a type mismatch.
-    """
-    by_name = {i.name: i for i in interfaces}
-    providers: dict[str, list] = {}
-    for itf in interfaces:
-        for name in itf.outputs_real:
-            providers.setdefault(name, []).append((itf.name, name, "Real"))
-        for name in itf.outputs_bool:
-            providers.setdefault(name, []).append((itf.name, name, "Boolean"))
-    chosen = {}
-    for src, dst in explicit:
-        si, _, so = src.partition(".")
-        di, _, dn = dst.partition(".")
-        src_itf, dst_itf = by_name.get(si), by_name.get(di)
-        if src_itf is None or dst_itf is None:
-            raise MasterError(f"connection {src} -> {dst}: unknown instance (known: {', '.join(by_name)})")
-        if so not in src_itf.outputs_real + src_itf.outputs_bool:
-            raise MasterError(f"connection {src} -> {dst}: {si} has no output {so!r}")
-        if dn not in dst_itf.inputs:
-            raise MasterError(f"connection {src} -> {dst}: {di} has no input {dn!r}")
-        chosen[(di, dn)] = (si, so, "Real" if so in src_itf.outputs_real else "Boolean")
-    links, unconnected = {}, []
-    for itf in interfaces:
-        for name, kind in itf.inputs.items():
-            if (itf.name, name) in chosen:
-                src = chosen[(itf.name, name)]
-            else:
-                cands = [p for alias in (name, *INPUT_ALIASES.get(name, ())) for p in providers.get(alias, [])
-                         if p[0] != itf.name]
-                if not cands:
-                    unconnected.append(f"{itf.name}.{name}")
-                    continue
-                if len(cands) > 1:
-                    opts = ", ".join(f"{i}.{o}" for i, o, _ in cands)
-                    raise MasterError(f"{itf.name}.{name} could come from {opts}: add an explicit connection")
-                src = cands[0]
-            if src[2] != kind:
-                raise MasterError(f"{src[0]}.{src[1]} ({src[2]}) cannot feed {itf.name}.{name} ({kind})")
-            links[(itf.name, name)] = src
-    return links, unconnected
-
-
-def fmu_paths(components, fmu_dir: str | Path = DEFAULT_OUT) -> dict[str, Path]:
-    """FMU file of every component by instance name (registry names built/rebuilt on demand)."""
-    by_name = [c.fmu for c in components if not str(c.fmu).endswith(".fmu")]
-    paths = ensure_fmus(sorted(set(by_name)), fmu_dir) if by_name else {}
-    return {c.name: Path(c.fmu) if str(c.fmu).endswith(".fmu") else paths[c.fmu] for c in components}
 
 
 # ---------------------------------------------------------------------------------------- extraction
@@ -234,44 +115,10 @@ class _Instance:
             if var is None or var.causality != "parameter":
                 known = sorted(v.name for v in self.md.modelVariables if v.causality == "parameter")
                 raise MasterError(f"{self.name}: no parameter {key!r}; parameters are: {', '.join(known)}")
-            vr = [var.valueReference]
             try:
-                if var.type == "Real":
-                    self.slave.setReal(vr, [float(value)])
-                elif var.type == "Integer":
-                    self.slave.setInteger(vr, [int(value)])
-                elif var.type == "Boolean":
-                    self.slave.setBoolean(vr, [parse_bool(key, value)])     # "false" is False
-                else:
-                    self.slave.setString(vr, [str(value)])
+                getattr(self.slave, f"set{var.type}")([var.valueReference], [fmi_value(var.type, value, key)])
             except Exception as exc:
                 raise MasterError(f"{self.name}: setting parameter {key!r} = {value!r} failed: {exc}") from exc
-
-
-# ---------------------------------------------------------------------------------------- results
-@dataclass
-class Results:
-    """Recorded co-simulation: structured array ``data`` and run metadata ``meta``."""
-
-    data: np.ndarray
-    meta: dict
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        return self.data[name]
-
-    @property
-    def names(self) -> tuple:
-        return self.data.dtype.names
-
-    def keys(self) -> tuple:
-        """Field names (so that a Results reads like a mapping of arrays)."""
-        return self.data.dtype.names
-
-    def to_csv(self, path: str | Path) -> None:
-        """Write all fields as CSV (Booleans as 0/1)."""
-        cols = [self.data[n].astype(float) for n in self.names]
-        np.savetxt(path, np.column_stack(cols), delimiter=",", header=",".join(self.names), comments="",
-                   fmt="%.10g")
 
 
 # ---------------------------------------------------------------------------------------- master

@@ -1,11 +1,11 @@
-"""Export a scenario's closed loop as an SSP 1.0 package (System Structure and Parameterization).
+"""SSP 1.0 packages (System Structure and Parameterization) of a scenario's closed loop: write and read.
 
 ``export_ssp`` writes ``OUT.ssp``, a zip with
 
 * ``SystemStructure.ssd``: one ``ssd:Component`` per instance (``source`` = its FMU under
   ``resources/``), a connector for every input, output and parameter with its type and unit,
   the scenario's parameter values as an inline ``ssv:ParameterSet`` binding per component,
-  the connections of :func:`~sideslip.cosim.master.resolve_connections` (the masters' own
+  the connections of :func:`~sideslip.cosim.assembly.resolve_connections` (the masters' own
   wiring), the unit definitions, and a ``DefaultExperiment`` (start 0, the scenario's stop
   time) whose OSP annotation gives libcosim the fixed communication step;
 * ``resources/<FMU>.fmu``: each FMU used, once.
@@ -13,25 +13,26 @@
 The package validates against the SSP 1.0 schema that fmpy ships (``fmpy.ssp.ssd.read_ssd``),
 runs in libcosim (:func:`~sideslip.cosim.libcosim_master.run_libcosim_ssp`) and can be
 opened by SSP-aware tools (OMSimulator, Simulink's SSP import).  SSP 1.0 has no coupling
-scheme: libcosim runs it as Jacobi, like ``run --master libcosim``.
+scheme: libcosim runs it as Jacobi, like ``run --master libcosim``.  :func:`read_experiment`
+reads back what a master needs to run a package (start, stop, step).  This module owns the
+SSP namespaces (:data:`NS`).
 """
 from __future__ import annotations
 
 import datetime
 import zipfile
 from pathlib import Path
-from xml.etree.ElementTree import Element, SubElement, register_namespace, tostring
+from xml.etree.ElementTree import Element, SubElement, parse, register_namespace, tostring
 
 from fmpy import read_model_description
 
 from .. import __version__
 from ..fmi.build import DEFAULT_OUT
-from ..params import parse_bool
-from .master import fmu_paths, interface_of, resolve_connections
-from .runner import scenario_components
-from .scenarios import Scenario, get_scenario
+from ..fmi.variables import format_value
+from ..scenarios import Scenario, get_scenario
+from .assembly import fmu_paths, interface_of, resolve_connections, scenario_components
 
-__all__ = ["export_ssp", "NS"]
+__all__ = ["export_ssp", "read_experiment", "NS"]
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
@@ -55,14 +56,7 @@ def _typed(parent: Element, ns: str, var, value=None) -> Element:
     if value is None and var.type == "Real" and unit:
         el.set("unit", unit)
     if value is not None:
-        if var.type == "Real":
-            el.set("value", repr(float(value)))
-        elif var.type == "Integer":
-            el.set("value", str(int(value)))
-        elif var.type == "Boolean":
-            el.set("value", "true" if parse_bool(var.name, value) else "false")
-        else:
-            el.set("value", str(value))
+        el.set("value", format_value(var.type, value, var.name))
     return el
 
 
@@ -100,7 +94,7 @@ def export_ssp(out: str | Path, scenario: str | Scenario, estimators=(), control
     out : path
         The ``.ssp`` file to write (folders are created).
     scenario, estimators, controller, params, control_source
-        As for :func:`~sideslip.cosim.runner.run_scenario`.
+        As for :func:`~sideslip.cosim.assembly.scenario_components`.
     overrides : dict, optional
         Scenario overrides.
     duration : float, optional
@@ -172,3 +166,15 @@ def export_ssp(out: str | Path, scenario: str | Scenario, estimators=(), control
             z.write(path, f"resources/{path.name}")
     tmp.replace(out)
     return out
+
+
+def read_experiment(ssd: str | Path) -> tuple[float, float | None, float | None]:
+    """``(start, stop, step)`` of a ``SystemStructure.ssd`` [s]: its ``DefaultExperiment`` and the OSP
+    fixed-step annotation (``None`` where the file gives none)."""
+    root = parse(ssd).getroot()
+    exp = root.find("ssd:DefaultExperiment", NS)
+    algo = root.find("ssd:DefaultExperiment/ssd:Annotations/ssc:Annotation/osp:Algorithm/osp:FixedStepAlgorithm", NS)
+    start = float(exp.get("startTime", 0.0)) if exp is not None else 0.0
+    stop = float(exp.get("stopTime")) if exp is not None and exp.get("stopTime") is not None else None
+    step = float(algo.get("baseStepSize")) if algo is not None else None
+    return start, stop, step

@@ -17,10 +17,10 @@ import math
 from dataclasses import dataclass
 from enum import IntEnum
 
-from ..model import Model
+from ..model import SampledModel
 from ..params import check, param
-from ..signals import ESTIMATOR_COMMON_OUTPUTS
-from ..vehicles import VehicleParams, load_vehicle
+from ..signals import ESTIMATOR_COMMON_OUTPUTS, WHEEL_SPEEDS_M
+from ..vehicles import VehicleConfig, VehicleParams
 
 __all__ = ["EstimatorConfig", "Estimator", "undriven_wheels", "input_enum", "beta_std", "lowpass"]
 
@@ -29,11 +29,9 @@ EVENT_INPUTS = ("gps_fresh",)
 
 
 @dataclass(frozen=True)
-class EstimatorConfig:
+class EstimatorConfig(VehicleConfig):
     """Parameters shared by every estimator."""
 
-    vehicle: str = param("pi2011_suv", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
-    vehicle_overrides: str = param("", "Dimensionless", "Vehicle parameter overrides, e.g. 'm=2000'")
     Ts: float = param(0.01, "Time", "Sample period of the filter", gt=0, le=1.0)
     v_min: float = param(2.0, "Velocity", "Below this speed the estimate is held and valid is false",
                          gt=0.1, le=20)
@@ -50,10 +48,10 @@ def input_enum(name: str, names) -> IntEnum:
 def undriven_wheels(vehicle: VehicleParams) -> tuple[str, ...]:
     """Wheel-speed inputs of the undriven axle (from the drive split), all four if both axles drive."""
     if vehicle.drive_split_front >= 1.0:
-        return ("omega_rl_m", "omega_rr_m")
+        return WHEEL_SPEEDS_M[2:]
     if vehicle.drive_split_front <= 0.0:
-        return ("omega_fl_m", "omega_fr_m")
-    return ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
+        return WHEEL_SPEEDS_M[:2]
+    return WHEEL_SPEEDS_M
 
 
 def lowpass(prev: float, value: float, ts: float, cutoff: float) -> float:
@@ -71,7 +69,7 @@ def beta_std(vx: float, vy: float, var_vx: float, var_vy: float, cov: float) -> 
     return math.sqrt(max(jx * jx * var_vx + 2 * jx * jy * cov + jy * jy * var_vy, 0.0))
 
 
-class Estimator(Model):
+class Estimator(SampledModel):
     """Base of the estimators (see module docstring).
 
     Subclasses set ``input_names`` and ``extra_outputs``, implement :meth:`_sample` (one
@@ -90,7 +88,7 @@ class Estimator(Model):
 
     def __init__(self, config=None, vehicle: VehicleParams | None = None):
         self.config = cfg = config or self.config_class()
-        self.vehicle = vehicle or load_vehicle(cfg.vehicle, cfg.vehicle_overrides)
+        self.vehicle = vehicle or cfg.vehicle_params()
         self.Ts = cfg.Ts
         self._events = [i for i, n in enumerate(self.input_names) if n in EVENT_INPUTS]
         wheels = undriven_wheels(self.vehicle)
@@ -101,7 +99,7 @@ class Estimator(Model):
     def reset(self) -> None:
         """Initial state: nothing estimated yet, ``valid`` false."""
         self._reset_clock()
-        self._samples = 0
+        self._reset_samples()
         self._u = [0.0] * len(self.input_names)
         self._seen = {i: False for i in self._events}   # event seen since the last sample
         self.beta = self.beta_std = self.vx = self.vy = self.yaw_rate = 0.0
@@ -142,8 +140,7 @@ class Estimator(Model):
             self._seen[i] = self._seen[i] or bool(u[i])
             latched[i] = 1.0 if self._seen[i] else 0.0
         ran = False
-        while (self._samples + 1) * self.Ts <= t + 1e-9 * self.Ts:
-            self._samples += 1
+        for _ in range(self._samples_due(t)):
             if math.isfinite(sum(latched)):
                 self._sample(latched)
             else:

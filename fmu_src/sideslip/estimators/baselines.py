@@ -21,15 +21,15 @@ from enum import IntEnum
 import numpy as np
 
 from ..bicycle import BicycleModel
+from ..constants import GRAVITY
 from ..params import param
-from ..vehicles import GRAVITY
+from ..signals import WHEEL_SPEEDS_M
 from .base import Estimator, EstimatorConfig, input_enum
 from .discrete import SpeedCache
 from .kalman import KalmanFilter
 
 __all__ = ["OpenLoopKinematic", "OpenLoopConfig", "LinearBicycleObserver", "BicycleObserverConfig"]
 
-_WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
 
 
 # ------------------------------------------------------------------------------ open loop
@@ -50,7 +50,7 @@ class OpenLoopKinematic(Estimator):
 
     config_class = OpenLoopConfig
     needs = "offset-free a_y and yaw rate: it integrates them with no correction, so an offset drifts"
-    input_names = ("ay_m", "yaw_rate_m", *_WHEELS)
+    input_names = ("ay_m", "yaw_rate_m", *WHEEL_SPEEDS_M)
     In = input_enum("In", input_names)
 
     def _init_filter(self):
@@ -79,9 +79,9 @@ class BicycleObserverConfig(EstimatorConfig):
 
     mu: float = param(1.0, "FrictionCoefficient", "Friction for which the nominal cornering stiffness is taken",
                       ge=0.05, le=1.5)
-    q_beta: float = param(1e-6, "Dimensionless", "Process noise of beta per sample [rad2]", gt=0, le=1)
-    q_r: float = param(1e-5, "Dimensionless", "Process noise of the yaw rate per sample [rad2/s2]", gt=0, le=1)
-    r_yaw: float = param(2.5e-5, "Dimensionless", "Yaw-rate measurement noise variance [rad2/s2]", gt=0, le=1)
+    q_beta: float = param(1e-6, "AngleVariance", "Process noise of beta per sample", gt=0, le=1)
+    q_r: float = param(1e-5, "AngularVelocityVariance", "Process noise of the yaw rate per sample", gt=0, le=1)
+    r_yaw: float = param(2.5e-5, "AngularVelocityVariance", "Yaw-rate measurement noise variance", gt=0, le=1)
 
 
 def _steering_model(model: BicycleModel, vx: float) -> tuple[np.ndarray, np.ndarray]:
@@ -100,7 +100,7 @@ class LinearBicycleObserver(Estimator):
 
     config_class = BicycleObserverConfig
     needs = "tires in their linear range with the nominal cornering stiffness (no adaptation, no friction limit)"
-    input_names = ("delta_m", "yaw_rate_m", *_WHEELS)
+    input_names = ("delta_m", "yaw_rate_m", *WHEEL_SPEEDS_M)
     In = input_enum("In", input_names)
 
     def _init_filter(self):

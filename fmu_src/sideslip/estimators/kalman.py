@@ -1,7 +1,7 @@
 """The one Kalman / extended Kalman filter core of the project.
 
-Every filter (Park 2018's three EKFs, Kim 2016, the linear bicycle observer, and the
-estimators of the later issues) keeps its mean and covariance in a :class:`KalmanFilter`
+Every filter of the project (Park 2018's three EKFs, Kim 2016, Nguyen 2012, Pi 2011, Yoon 2014, the
+linear bicycle observer) keeps its mean and covariance in a :class:`KalmanFilter`
 and writes only its model: the predicted mean and Jacobian for :meth:`~KalmanFilter.predict`,
 the innovation and measurement Jacobian for :meth:`~KalmanFilter.update`.  The caller
 computes the innovation ``z - h(x)`` so that angle measurements can be wrapped.

@@ -1,4 +1,4 @@
-"""Kim, Yoon, Kim (2016): steering angle, sideslip and yaw rate from an EKF (004_87b9949c55823694.txt).
+"""Kim, Yoon, Kim (2016), "Estimation of the steering angle based on extended Kalman filter".
 
 An EKF on ``x = [beta, gamma, delta]`` (eq 16) with the speed ``v_x`` as input (eq 17) and
 the in-vehicle (ESC) signals ``z = [a_y, gamma]`` as measurements (eq 21).  The steering
@@ -36,12 +36,12 @@ import numpy as np
 
 from ..bicycle import BicycleModel
 from ..params import param
+from ..signals import WHEEL_SPEEDS_M
 from .base import Estimator, EstimatorConfig, input_enum
 from .kalman import KalmanFilter
 
 __all__ = ["Kim2016Config", "Kim2016SteeringEKF", "St", "kim_f", "kim_F", "kim_h", "kim_H"]
 
-_WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
 
 
 class St(IntEnum):
@@ -92,11 +92,11 @@ class Kim2016Config(EstimatorConfig):
     vehicle: str = param("kim2016_asm", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
     mu: float = param(1.0, "FrictionCoefficient", "Friction for which the nominal cornering stiffness is taken",
                       ge=0.05, le=1.5)
-    q_beta: float = param(1e-7, "Dimensionless", "Q(1,1) of eq 20: sideslip process noise per sample [rad2]",
+    q_beta: float = param(1e-7, "AngleVariance", "Q(1,1) of eq 20: sideslip process noise per sample",
                           gt=0, le=1)
-    q_gamma: float = param(1e-4, "Dimensionless", "Q(2,2) of eq 20: yaw-rate process noise per sample [rad2/s2]",
+    q_gamma: float = param(1e-4, "AngularVelocityVariance", "Q(2,2) of eq 20: yaw-rate process noise per sample",
                            gt=0, le=1)
-    q_delta: float = param(1e-5, "Dimensionless", "Q(3,3) of eq 20: steering-model noise per sample [rad2]",
+    q_delta: float = param(1e-5, "AngleVariance", "Q(3,3) of eq 20: steering-model noise per sample",
                            gt=0, le=1)
     sigma_ay: float = param(1.0, "Acceleration", "Lateral-acceleration noise (Table 2), R(1,1) = sigma^2",
                             gt=0, le=20)
@@ -114,7 +114,7 @@ class Kim2016SteeringEKF(Estimator):
     """Kim 2016 EKF on ``[beta, gamma, delta]`` with the steering-sensor residual test."""
 
     config_class = Kim2016Config
-    input_names = ("ay_m", "yaw_rate_m", "delta_m", *_WHEELS)
+    input_names = ("ay_m", "yaw_rate_m", "delta_m", *WHEEL_SPEEDS_M)
     extra_outputs = ("delta_hat", "delta_residual", "delta_fault")
     In = input_enum("In", input_names)
 

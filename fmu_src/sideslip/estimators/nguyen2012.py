@@ -1,4 +1,5 @@
-"""Nguyen, Wang, Fujimoto, Hori (2012): disturbance-accommodating multi-rate Kalman filter (003_...).
+"""Nguyen, Wang, Fujimoto, Hori (2012), "Sideslip angle estimation using GPS and disturbance accommodating
+multi-rate Kalman filter for electric vehicle stability control".
 
 A linear Kalman filter on the bicycle model with the in-wheel motors' yaw moment as an input,
 in three variants selected by ``mode`` (Table II of the paper):
@@ -22,11 +23,11 @@ Discretisation: the exact zero-order hold of the augmented system, ``expm([[A, B
 paper's).  The model depends on ``v_x``, so the matrices are cached per 0.01 m/s of speed
 (:mod:`sideslip.estimators.discrete`; the filter runs every 1 ms).  At the COMS's 5.6 m/s and 1 ms the
 fastest mode is ``|lambda| T ~ 0.01``, so the two differ by ``(lambda T)^2 / 2 ~ 5e-5`` relative
-per step: the README gives the measured effect on the estimates.
+per step: the accuracy page of the docs gives the measured effect on the estimates.
 
 Observability: at constant speed the DACMRKF's state on yaw rate and course has rank 4 of 5; the
 direction ``(1, 0, -1, -a11, -a21)`` (a sideslip shift taken up by the heading and by ``d1, d2``)
-changes neither measurement, so the estimate can wander along it (README, Nguyen table).
+changes neither measurement, so the estimate can wander along it (accuracy page of the docs, Nguyen 2012).
 
 The course is compared with ``psi + beta`` modulo 2 pi (the innovation is wrapped), so laps do
 not matter; ``psi`` is started from the first course fix and kept in (-pi, pi].
@@ -42,13 +43,13 @@ import numpy as np
 
 from ..bicycle import BicycleModel
 from ..params import param
+from ..signals import WHEEL_SPEEDS_M
 from .base import Estimator, EstimatorConfig, input_enum
 from .discrete import SpeedCache, euler, zoh
 from .kalman import KalmanFilter
 
 __all__ = ["Nguyen2012Config", "Nguyen2012DACMRKF", "St", "continuous_model", "MODES"]
 
-_WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
 MODES = {"srkf": 2, "mrkf": 3, "dacmrkf": 5}
 """Mode -> number of states (the leading block of eq 13)."""
 
@@ -100,7 +101,7 @@ class Nguyen2012DACMRKF(Estimator):
     """SRKF / MRKF / DACMRKF of Nguyen 2012 (see module docstring)."""
 
     config_class = Nguyen2012Config
-    input_names = ("yaw_rate_m", "delta_m", *_WHEELS, "gps_course", "gps_fresh", "gps_valid", "Mz_cmd")
+    input_names = ("yaw_rate_m", "delta_m", *WHEEL_SPEEDS_M, "gps_course", "gps_fresh", "gps_valid", "Mz_cmd")
     extra_outputs = ("yaw_hat", "d1_hat", "d2_hat")
     needs = ("an offset-free yaw rate: the method has no gyro-offset state, and an offset b moves beta_hat "
              "at -b rad/s along the direction it cannot observe")

@@ -1,6 +1,7 @@
-"""Park, Choi, Hyun, Lee (2018): integrated observer using in-vehicle sensors and GPS.
+"""Park, Choi, Hyun, Lee (2018), "Integrated observer approach using in-vehicle sensors and GPS for vehicle
+state estimation".
 
-The whole method of 000_2165c3893fcd1b2c.txt (Fig. 1), every block fed forward:
+The whole method of the paper (Fig. 1), every block fed forward:
 
 1. **Sensor offset compensator** (eqs 2-7): while driving straight (steering angle and rate
    below thresholds, eq 2) the offsets of yaw rate, lateral acceleration, longitudinal
@@ -31,7 +32,7 @@ signs of ``-(C_f + C_r)/(m v_x)`` and ``-(C_f l_f^2 + C_r l_r^2)/(I_z v_x)`` tha
 eqs 8-13; eq 14 and eq 32 swap ``l_f`` and ``l_r`` in the static axle loads; eq 35 lacks the
 ``I + T_s (...)`` of a discrete Jacobian.  The paper leaves the kinematic and integrated EKFs'
 covariances, the compensator gains and thresholds and the weighting constants unspecified:
-they are parameters with the defaults below, chosen on the scenarios and stated in the README.
+they are parameters with the defaults below, chosen on the scenarios and stated in the docs (modelling choices).
 """
 from __future__ import annotations
 
@@ -41,8 +42,10 @@ from enum import IntEnum
 
 import numpy as np
 
+from ..bicycle import axle_forces
+from ..constants import GRAVITY
 from ..params import param
-from ..vehicles import GRAVITY
+from ..signals import WHEEL_SPEEDS_M
 from .base import Estimator, EstimatorConfig, beta_std, input_enum, lowpass
 from .kalman import KalmanFilter
 from .roll import RollCompensator
@@ -51,7 +54,6 @@ __all__ = ["Park2018Config", "Park2018Observer", "Bic", "Kin", "Intg", "bicycle_
            "kinematic_f", "kinematic_F", "kinematic_h", "kinematic_H", "integrated_f", "integrated_F",
            "weighting_factor"]
 
-_WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
 
 
 class Bic(IntEnum):
@@ -216,32 +218,32 @@ class Park2018Config(EstimatorConfig):
     settle_time: float = param(2.0, "Time", "The kinematic EKF starts once the compensator has run this long "
                                "(or after 2.5 x this time)", ge=0, le=60)
     # bicycle-model EKF (eqs 16-22): the paper's Q_bic and R_bic
-    q_bic_beta: float = param(3.5e-6, "Dimensionless", "Q_bic(1,1) [rad2]", gt=0, le=1)
-    q_bic_r: float = param(8e-5, "Dimensionless", "Q_bic(2,2) [rad2/s2]", gt=0, le=1)
-    q_bic_dc: float = param(3.0, "Dimensionless", "Q_bic(3,3) = Q_bic(4,4) [1/rad2]", gt=0, le=100)
-    r_bic_fyf: float = param(3.2e4, "Dimensionless", "R_bic(1,1) [N2]", gt=0, le=1e9)
-    r_bic_fyr: float = param(6.94e4, "Dimensionless", "R_bic(2,2) [N2]", gt=0, le=1e9)
-    r_bic_r: float = param(5.8e-6, "Dimensionless", "R_bic(3,3) [rad2/s2]", gt=0, le=1)
+    q_bic_beta: float = param(3.5e-6, "AngleVariance", "Q_bic(1,1): process noise of beta per sample (paper)", gt=0, le=1)
+    q_bic_r: float = param(8e-5, "AngularVelocityVariance", "Q_bic(2,2): process noise of the yaw rate per sample (paper)", gt=0, le=1)
+    q_bic_dc: float = param(3.0, "NormalisedStiffnessVariance", "Q_bic(3,3) = Q_bic(4,4): process noise of dCf_n, dCr_n per sample (paper)", gt=0, le=100)
+    r_bic_fyf: float = param(3.2e4, "ForceVariance", "R_bic(1,1): variance of the front axle force measurement (paper)", gt=0, le=1e9)
+    r_bic_fyr: float = param(6.94e4, "ForceVariance", "R_bic(2,2): variance of the rear axle force measurement (paper)", gt=0, le=1e9)
+    r_bic_r: float = param(5.8e-6, "AngularVelocityVariance", "R_bic(3,3): variance of the yaw-rate measurement (paper)", gt=0, le=1)
     dc_max: float = param(0.0, "Dimensionless", "Upper bound of dC_n as a fraction of C_0n (the slope only "
                           "drops beyond the linear range, Fig. 3)", ge=0, le=2)
     yaw_acc_lpf: float = param(15.0, "Frequency", "Cut-off of the low-pass filter on the yaw acceleration (eq 19)",
                                gt=0, le=50)
     # kinematic-model EKF (eqs 25-29): not given in the paper
-    q_kin_v: float = param(4e-6, "Dimensionless", "Process noise of vx and vy per sample [m2/s2]", gt=0, le=1)
-    q_kin_psi: float = param(1e-7, "Dimensionless", "Process noise of the heading per sample [rad2]", gt=0, le=1)
-    r_kin_vw: float = param(4e-3, "Dimensionless", "Wheel-speed measurement variance [m2/s2]", gt=0, le=10)
-    r_kin_gps: float = param(3e-3, "Dimensionless", "GPS velocity measurement variance [m2/s2]", gt=0, le=10)
+    q_kin_v: float = param(4e-6, "VelocityVariance", "Process noise of vx and vy per sample", gt=0, le=1)
+    q_kin_psi: float = param(1e-7, "AngleVariance", "Process noise of the heading per sample", gt=0, le=1)
+    r_kin_vw: float = param(4e-3, "VelocityVariance", "Wheel-speed measurement variance", gt=0, le=10)
+    r_kin_gps: float = param(3e-3, "VelocityVariance", "GPS velocity measurement variance", gt=0, le=10)
     # weighting factor (eqs 30-31): not given in the paper; relative to C_0n (see weighting_factor)
     tau_f: float = param(0.06, "Dimensionless", "tau_f of eq 30, as a fraction of C_f0n", gt=0, le=1)
     eps_f: float = param(0.04, "Dimensionless", "epsilon_f of eq 30, as a fraction of C_f0n", gt=0, le=1)
     tau_r: float = param(0.06, "Dimensionless", "tau_r of eq 30, as a fraction of C_r0n", gt=0, le=1)
     eps_r: float = param(0.04, "Dimensionless", "epsilon_r of eq 30, as a fraction of C_r0n", gt=0, le=1)
     # integrated observer (eqs 33-36): not given in the paper
-    q_int_v: float = param(2e-4, "Dimensionless", "Process noise of vx and vy per sample [m2/s2]", gt=0, le=1)
-    q_int_r: float = param(1e-5, "Dimensionless", "Process noise of the yaw rate per sample [rad2/s2]", gt=0, le=1)
-    r_int_vx: float = param(4e-3, "Dimensionless", "Variance of the vx pseudo-measurement [m2/s2]", gt=0, le=10)
-    r_int_vy: float = param(2e-3, "Dimensionless", "Variance of the vy pseudo-measurement [m2/s2]", gt=0, le=10)
-    r_int_r: float = param(5.8e-6, "Dimensionless", "Variance of the yaw-rate measurement [rad2/s2]", gt=0, le=1)
+    q_int_v: float = param(2e-4, "VelocityVariance", "Process noise of vx and vy per sample", gt=0, le=1)
+    q_int_r: float = param(1e-5, "AngularVelocityVariance", "Process noise of the yaw rate per sample", gt=0, le=1)
+    r_int_vx: float = param(4e-3, "VelocityVariance", "Variance of the vx pseudo-measurement", gt=0, le=10)
+    r_int_vy: float = param(2e-3, "VelocityVariance", "Variance of the vy pseudo-measurement", gt=0, le=10)
+    r_int_r: float = param(5.8e-6, "AngularVelocityVariance", "Variance of the yaw-rate measurement", gt=0, le=1)
     heading_speed: float = param(2.0, "Velocity", "GPS speed above which the heading is initialised from the course",
                                  gt=0.5, le=30)
     heading_std0: float = param(0.02, "Angle", "Initial heading uncertainty besides the course noise", gt=0, le=1)
@@ -254,7 +256,7 @@ class Park2018Observer(Estimator):
     """Park 2018 integrated observer (see module docstring)."""
 
     config_class = Park2018Config
-    input_names = ("ax_m", "ay_m", "yaw_rate_m", "delta_m", *_WHEELS, "gps_ve", "gps_vn", "gps_speed",
+    input_names = ("ax_m", "ay_m", "yaw_rate_m", "delta_m", *WHEEL_SPEEDS_M, "gps_ve", "gps_vn", "gps_speed",
                    "gps_fresh", "gps_valid", "mu")
     extra_outputs = ("yaw_hat", "Cf_hat", "Cr_hat", "weight_K", "offset_ax", "offset_ay", "offset_yaw_rate",
                      "offset_radius", "beta_hat_bicycle", "beta_hat_kinematic", "beta_hat_openloop")
@@ -356,8 +358,7 @@ class Park2018Observer(Estimator):
         l = lf + lr
         fzf = m * (GRAVITY * lr - v.h_cg * ax) / l
         fzr = m * (GRAVITY * lf + v.h_cg * ax) / l
-        fyf = (m * lr * ay + iz * self._r_dot) / l
-        fyr = (m * lf * ay - iz * self._r_dot) / l
+        fyf, fyr = axle_forces(m, iz, lf, lr, ay, self._r_dot)
         cf0_axle, cr0_axle = v.nominal_cornering_stiffness(mu)
         cf0, cr0 = cf0_axle / self._fz_static[0], cr0_axle / self._fz_static[1]   # C_0n for this mu
 

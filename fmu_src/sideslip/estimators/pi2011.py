@@ -1,4 +1,5 @@
-"""Pi, Chen, Wang, Zhang (2011): sideslip observer with a fuzzy nonlinear factor (002_...).
+"""Pi, Chen, Wang, Zhang (2011), "Design and evaluation of sideslip angle observer for vehicle stability
+control": the sideslip observer with a fuzzy nonlinear factor.
 
 Section 4 of the paper, every block:
 
@@ -51,7 +52,9 @@ from enum import IntEnum
 
 import numpy as np
 
-from ..params import check, param
+from ..bicycle import BicycleModel, axle_forces
+from ..params import ParameterError, check, param
+from ..signals import WHEEL_SPEEDS_M
 from .base import Estimator, EstimatorConfig, input_enum, lowpass
 from .fuzzy import Mamdani, Trapezoid
 from .kalman import KalmanFilter
@@ -60,7 +63,6 @@ from .roll import RollCompensator
 __all__ = ["Pi2011Config", "Pi2011FuzzyEKF", "St", "pi_f", "pi_F", "pi_h", "pi_H", "nonlinear_factor_system",
            "TABLE2"]
 
-_WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
 _INF = float("inf")
 
 
@@ -146,10 +148,10 @@ class Pi2011Config(EstimatorConfig):
     yaw_acc_lpf: float = param(10.0, "Frequency", "Cut-off of the low-pass filter on dr/dt (eqs 23-24)", gt=0,
                                le=50)
     dr_lpf: float = param(5.0, "Frequency", "Cut-off of the low-pass filter on the yaw rate of eq 31", gt=0, le=50)
-    q_beta: float = param(1e-13, "Dimensionless", "Q(1,1) [rad2] (paper)", gt=0, le=1)
-    q_force: float = param(100.0, "Dimensionless", "Q(2,2) = Q(3,3) [N2] (paper)", gt=0, le=1e8)
-    r_force: float = param(0.1, "Dimensionless", "R(1,1) = R(2,2) [N2] (paper)", gt=0, le=1e8)
-    r_ay: float = param(0.1, "Dimensionless", "R(3,3) [m2/s4] (paper)", gt=0, le=100)
+    q_beta: float = param(1e-13, "AngleVariance", "Q(1,1): process noise of beta per sample (paper)", gt=0, le=1)
+    q_force: float = param(100.0, "ForceVariance", "Q(2,2) = Q(3,3): process noise of the axle forces per sample (paper)", gt=0, le=1e8)
+    r_force: float = param(0.1, "ForceVariance", "R(1,1) = R(2,2): variance of the weighted axle forces (paper)", gt=0, le=1e8)
+    r_ay: float = param(0.1, "AccelerationVariance", "R(3,3): variance of the lateral acceleration (paper)", gt=0, le=100)
     alpha_min: float = param(0.005, "Angle", "Smallest axle slip angle for the secant stiffness of eqs 35-36",
                              gt=0, le=0.2)
     c_min: float = param(0.05, "Dimensionless", "Lower bound of C_s as a fraction of C (eqs 35-36)", gt=0, le=1)
@@ -164,8 +166,6 @@ class Pi2011Config(EstimatorConfig):
 
     def __post_init__(self):
         check(self)
-        from ..params import ParameterError
-
         if not self.dr_ze < self.dr_small < self.dr_big:
             raise ParameterError("dr_small", self.dr_small, f"dr_ze < dr_small < dr_big (dr_ze = {self.dr_ze:g}, "
                                  f"dr_big = {self.dr_big:g})")
@@ -179,16 +179,16 @@ class Pi2011FuzzyEKF(Estimator):
     """Pi 2011 fuzzy-weighted EKF (see module docstring)."""
 
     config_class = Pi2011Config
-    input_names = ("ay_m", "yaw_rate_m", "delta_m", *_WHEELS, "Mz_cmd")
+    input_names = ("ay_m", "yaw_rate_m", "delta_m", *WHEEL_SPEEDS_M, "Mz_cmd")
     extra_outputs = ("nonlinear_factor", "Cf_hat", "Cr_hat", "Fyf_hat", "Fyr_hat")
     In = input_enum("In", input_names)
 
     def _init_filter(self):
         v, cfg = self.vehicle, self.config
         self._p = (v.m, v.l_f, v.l_r)
-        self._C = v.nominal_cornering_stiffness(cfg.mu)            # C_f, C_r of eqs 33-34 (axle)
-        cf, cr = self._C
-        k_us = v.m * (v.l_r / cf - v.l_f / cr) / v.l                # eq 32 (l_r/C_f - l_f/C_r)
+        model = BicycleModel.from_vehicle(v, cfg.mu, nominal=True)
+        self._C = model.C_f, model.C_r                              # C_f, C_r of eqs 33-34 (axle)
+        k_us = model.understeer_gradient                            # eq 32 (l_r/C_f - l_f/C_r)
         self._vc2 = v.l / k_us if k_us > 0 else _INF                # characteristic speed squared
         self.fuzzy = nonlinear_factor_system(cfg.dr_ze, cfg.dr_small, cfg.dr_big, cfg.ay_ze, cfg.ay_small,
                                              cfg.ay_big)
@@ -223,8 +223,7 @@ class Pi2011FuzzyEKF(Estimator):
         m, lf, lr = self._p
         l = lf + lr
         # 1. side forces from the sensors (eqs 23-24)
-        fyf_s = (lr * m * ay + v.I_zz * self._r_dot - mz) / l
-        fyr_s = (lf * m * ay - v.I_zz * self._r_dot + mz) / l
+        fyf_s, fyr_s = axle_forces(m, v.I_zz, lf, lr, ay, self._r_dot, mz)
         # 2. nonlinear factor (eqs 31-32; Mamdani, Table 2)
         g = 1.0 + vx * vx / self._vc2
         r_ref = vx * delta / (l * g)                                         # eq 32

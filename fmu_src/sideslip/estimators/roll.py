@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import math
 
-from ..vehicles import GRAVITY, VehicleParams
+from ..constants import GRAVITY
+from ..vehicles import VehicleParams
 
 __all__ = ["RollCompensator"]
 

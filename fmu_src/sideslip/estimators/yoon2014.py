@@ -1,4 +1,5 @@
-"""Yoon & Peng (2014): dual Kalman filters with magnetometer disturbance rejection (001_...).
+"""Yoon & Peng (2014), "Robust vehicle sideslip angle estimation through a disturbance rejection filter
+that integrates a magnetometer with GPS": dual Kalman filters.
 
 Fig. 6 of the paper, every block:
 
@@ -53,8 +54,9 @@ import numpy as np
 
 from .. import geomagnetic
 from ..geomagnetic import earth_field
+from ..constants import GRAVITY
 from ..params import param
-from ..vehicles import GRAVITY
+from ..signals import WHEEL_SPEEDS_M
 from .base import Estimator, EstimatorConfig, beta_std, input_enum
 from .baselines import BicycleObserverConfig, LinearBicycleObserver
 from .kalman import KalmanFilter
@@ -62,7 +64,6 @@ from .kalman import KalmanFilter
 __all__ = ["Yoon2014Config", "Yoon2014DualKF", "Hd", "Sd", "magnetometer_h", "magnetometer_H",
            "sideslip_F", "DelayIdentifier"]
 
-_WHEELS = ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m")
 
 
 class Hd(IntEnum):
@@ -168,8 +169,8 @@ class Yoon2014Config(EstimatorConfig):
                                    "Declination of the Earth field (calibrated yaw offset)",
                                    ge=-math.pi, le=math.pi)
     # heading EKF
-    q_psi: float = param(1e-8, "Dimensionless", "Process noise of the yaw angle per sample [rad2]", gt=0, le=1)
-    q_phi: float = param(1e-9, "Dimensionless", "Process noise of the roll angle per sample [rad2]", gt=0, le=1)
+    q_psi: float = param(1e-8, "AngleVariance", "Process noise of the yaw angle per sample", gt=0, le=1)
+    q_phi: float = param(1e-9, "AngleVariance", "Process noise of the roll angle per sample", gt=0, le=1)
     sigma_mag: float = param(0.1, "MagneticFluxRatio", "Magnetometer noise per axis in R (undisturbed); five times "
                              "the sensor's 0.02 by default, see the module docstring", gt=0, le=1)
     disturbance_rejection: bool = param(True, "Dimensionless", "Inflate R by eta^2 while the field norm is off "
@@ -183,8 +184,8 @@ class Yoon2014Config(EstimatorConfig):
     standstill_speed: float = param(0.05, "Velocity", "Wheel speed below which the car stands still (gyro biases)",
                                     gt=0, le=1)
     # sideslip KF
-    q_u: float = param(1e-6, "Dimensionless", "Process noise of U and V per sample [m2/s2]", gt=0, le=1)
-    q_b: float = param(1e-8, "Dimensionless", "Process noise of b_x and b_y per sample [m2/s4]", gt=0, le=1)
+    q_u: float = param(1e-6, "VelocityVariance", "Process noise of U and V per sample", gt=0, le=1)
+    q_b: float = param(1e-8, "AccelerationVariance", "Process noise of b_x and b_y per sample", gt=0, le=1)
     sigma_gps: float = param(0.02, "Velocity", "GPS velocity noise per axis", gt=0, le=10)
     measurement_shifting: bool = param(True, "Dimensionless", "Apply a delayed fix at its own sample and "
                                        "re-propagate (Fig. 7); false: apply it when it arrives")
@@ -198,8 +199,8 @@ class Yoon2014Config(EstimatorConfig):
                              "identification", gt=0, le=20)
     # straight driving (eq 32)
     r_straight: float = param(0.03, "AngularVelocity", "Yaw rate below which the car drives straight", gt=0, le=1)
-    r_bicycle: float = param(1e-3, "Dimensionless", "Variance of the V = U tan(beta_bicycle) pseudo-measurement "
-                             "[m2/s2]", gt=0, le=100)
+    r_bicycle: float = param(1e-3, "VelocityVariance", "Variance of the V = U tan(beta_bicycle) "
+                             "pseudo-measurement", gt=0, le=100)
 
 
 # ------------------------------------------------------------------------------ the estimator
@@ -207,7 +208,7 @@ class Yoon2014DualKF(Estimator):
     """Yoon & Peng 2014 dual Kalman filters (see module docstring)."""
 
     config_class = Yoon2014Config
-    input_names = ("ax_m", "ay_m", "yaw_rate_m", "roll_rate_m", "delta_m", *_WHEELS, "gps_ve", "gps_vn",
+    input_names = ("ax_m", "ay_m", "yaw_rate_m", "roll_rate_m", "delta_m", *WHEEL_SPEEDS_M, "gps_ve", "gps_vn",
                    "gps_fresh", "gps_valid", "mag_x", "mag_y", "mag_z")
     extra_outputs = ("yaw_hat", "roll_hat", "bias_ax_hat", "bias_ay_hat", "gps_delay_hat", "mag_disturbed")
     needs = ("gyro biases calibrated at a standstill before driving off; a yaw-rate offset it could not "
@@ -282,7 +283,6 @@ class Yoon2014DualKF(Estimator):
 
     def _sample(self, u):
         I, cfg, ts = self.In, self.config, self.Ts
-        v = self.vehicle
         vw = self.speed(u)
         r_m, p_m, ax_m, ay_m = u[I.YAW_RATE_M], u[I.ROLL_RATE_M], u[I.AX_M], u[I.AY_M]
         # gyro biases while standing still (Section III.A)

@@ -1,6 +1,7 @@
 """Build the project's FMUs: pythonfmu packaging plus the fmi2 shim (linux64).
 
-``build_fmus()`` packs each wrapper with the whole :mod:`sideslip` package and a
+``build_fmus()`` packs each wrapper of the catalogue (:mod:`sideslip.fmi.catalogue`) with the
+modules of :mod:`sideslip` that run inside it (:mod:`sideslip.fmi.bundle`) and a
 ``requirements.txt`` (for ``pythonfmu deploy``) in ``resources/``, state handling and
 serialisation on, ``needsExecutionTool="false"``; then, when a C compiler is available,
 replaces ``binaries/linux64/<id>.so`` by the shim and ships pythonfmu's library next to it as
@@ -10,7 +11,7 @@ these packages.  Without a compiler the plain pythonfmu binary is kept and the b
 (FMUs still run in Python hosts; bad parameters are then reported by a logged error and a
 refused doStep instead of ``fmi2Error``; C hosts must preload libpython).
 
-Builds are cached: an FMU is rebuilt when the hash of its sources changes.
+Builds are cached: an FMU is rebuilt when the hash of the files it carries changes.
 """
 from __future__ import annotations
 
@@ -25,8 +26,8 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from .registry import PACKAGE_DIR, fmu_entries, fmu_entry
-from .requirements import fmu_requirements
+from .bundle import PACKAGE_DIR, bundled_files, fmu_requirements, wrapper_script
+from .catalogue import CATALOGUE, fmu_spec
 
 __all__ = ["build_fmus", "ensure_fmus", "DEFAULT_OUT", "compile_shim", "python_config", "BuildError"]
 
@@ -105,13 +106,13 @@ def compile_shim(work: Path) -> tuple[Path | None, str]:
     return out, f"status shim compiled with {cc}"
 
 
-def _source_hash(script: Path, shim: bool) -> str:
+def _source_hash(name: str, shim: bool) -> str:
     import pythonfmu
 
+    spec = fmu_spec(name)
     h = hashlib.sha256()
-    files = sorted(p for p in PACKAGE_DIR.rglob("*") if p.suffix in (".py", ".toml", ".c")
-                   and "__pycache__" not in p.parts)
-    for p in [script, *files]:
+    files = [wrapper_script(spec), SHIM_SOURCE, *bundled_files(spec)]
+    for p in files:
         h.update(str(p.relative_to(PACKAGE_DIR.parent) if p.is_relative_to(PACKAGE_DIR.parent) else p.name)
                  .encode())
         h.update(p.read_bytes())
@@ -145,17 +146,21 @@ def _build_one(name: str, out_dir: Path, shim: Path | None) -> Path:
     never sees a half-written FMU)."""
     from pythonfmu.builder import FmuBuilder
 
-    entry = fmu_entry(name)
+    spec = fmu_spec(name)
+    script = wrapper_script(spec)
     with tempfile.TemporaryDirectory(prefix="sideslip_build_") as tmp:
-        # pythonfmu copies the project folder; give it a clean copy of the package (no caches)
+        # pythonfmu copies the project files into resources/: the modules the FMU runs, nothing else
         pkg = Path(tmp) / "sideslip"
-        shutil.copytree(PACKAGE_DIR, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        for f in bundled_files(spec):
+            dest = pkg / f.relative_to(PACKAGE_DIR)
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(f, dest)
         reqs = Path(tmp) / "requirements.txt"          # for `pythonfmu deploy`
         reqs.write_text(f"# Python packages the {name} FMU imports (pip install -r requirements.txt)\n"
-                        + "\n".join(fmu_requirements(entry.script)) + "\n")
+                        + "\n".join(fmu_requirements(spec)) + "\n")
         staging = Path(tmp) / "out"
         staging.mkdir()
-        fmu = Path(FmuBuilder.build_FMU(entry.script, dest=staging, project_files=[pkg, reqs],
+        fmu = Path(FmuBuilder.build_FMU(script, dest=staging, project_files=[pkg, reqs],
                                         needsExecutionTool=False, canGetAndSetFMUstate=True,
                                         canSerializeFMUstate=True))
         if shim is not None:
@@ -190,7 +195,7 @@ class _BuildLock:
 
 
 def build_fmus(names=None, out_dir: Path | str = DEFAULT_OUT, force: bool = False, log=print) -> list[Path]:
-    """Build FMUs (all registered ones by default) into ``out_dir``.
+    """Build FMUs (every one of the catalogue by default) into ``out_dir``.
 
     Parameters
     ----------
@@ -210,12 +215,12 @@ def build_fmus(names=None, out_dir: Path | str = DEFAULT_OUT, force: bool = Fals
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    names = sorted(fmu_entries()) if not names else list(names)
+    names = sorted(CATALOGUE) if not names else list(names)
     for name in names:
-        fmu_entry(name)
+        fmu_spec(name)
     with_shim = _find_cc() is not None
     with _BuildLock(out_dir):
-        digests = {name: _source_hash(fmu_entry(name).script, with_shim) for name in names}
+        digests = {name: _source_hash(name, with_shim) for name in names}
         todo = []
         for name in names:
             fmu, stamp = out_dir / f"{name}.fmu", out_dir / f"{name}.fmu.sha256"

@@ -1,13 +1,14 @@
-"""The FMU toolkit: a pythonfmu ``Fmi2Slave`` base that declares ports from the catalogue.
+"""The FMU toolkit: a pythonfmu ``Fmi2Slave`` base that declares ports from the signal catalogue.
 
-An FMU wrapper only names its library model class and config class::
+An FMU wrapper is a class statement named like its entry in the FMU catalogue
+(:mod:`sideslip.fmi.catalogue`)::
 
     class VehiclePlant(SideslipSlave):
-        model_class = VehiclePlant       # has input_names, output_names, step(h, *u), outputs()
-        config_class = PlantConfig       # frozen dataclass of declared params
-        description = "..."
+        pass
 
-and this base does the rest:
+The entry gives the library model class (``input_names``, ``output_names``, ``step(h, *u)``,
+``outputs()``), its configuration dataclass of declared parameters, the role and the
+description, and this base does the rest:
 
 * ports: every input/output from :mod:`sideslip.signals` (unit, declaredType, min/max,
   description, start); parameters from the config's declared fields;
@@ -36,6 +37,7 @@ import ctypes
 import functools
 import math
 import pickle
+import sys
 import traceback
 from operator import le
 from typing import Any
@@ -49,6 +51,7 @@ from .. import __version__
 from ..params import ParameterError, build, declared_fields, describe_range
 from ..signals import signal
 from ..units import QUANTITIES, UNITS
+from .catalogue import fmu_spec
 
 __all__ = ["SideslipSlave", "keep_module_dict_alive"]
 
@@ -67,6 +70,20 @@ def keep_module_dict_alive(namespace: dict) -> None:
     normal import adds one extra reference, which only keeps an immortal module alive).
     """
     ctypes.pythonapi.Py_IncRef(ctypes.py_object(namespace))
+
+
+def _leave_sys_path(resources) -> None:
+    """Move the FMU's ``resources/`` folder from the front of ``sys.path`` to its end.
+
+    pythonfmu puts it first to import the wrapper module; left there, it would shadow the host's
+    own packages (a host process that imports :mod:`sideslip` later, or the workers it spawns,
+    would get the FMU's partial copy).  The FMU's modules are imported by then, and its
+    subpackages load through their packages' ``__path__``, not ``sys.path``.
+    """
+    folder = str(resources) if resources else None
+    if folder and folder in sys.path:
+        sys.path.remove(folder)
+        sys.path.append(folder)
 
 
 def _host_call(function: str, default=None):
@@ -137,15 +154,18 @@ PORT_BUFFER_MAGIC = "sideslip-ports-v1"
 class SideslipSlave(Fmi2Slave):
     """Base class of every sideslip-fmu FMU (see module docstring).
 
-    Subclasses set ``model_class`` (a library class with ``input_names``, ``output_names``,
+    A subclass is named like its catalogue entry, which sets ``spec``, ``role``,
+    ``model_class`` (a library class with ``input_names``, ``output_names``,
     ``step(h, *inputs)`` and ``outputs()`` returning floats, Booleans as 0.0/1.0),
     ``config_class`` (a frozen dataclass of :func:`~sideslip.params.param` fields) and
-    ``description``; they may override :meth:`make_model`.
+    ``description``; a subclass may override :meth:`make_model`.
 
     Value references: 0 is ``_port_buffer``; inputs are ``1..n_in`` and outputs follow, in
     the model's order; parameters come last.
     """
 
+    spec: Any = None
+    role: str = ""
     model_class: Any = None
     config_class: Any = None
     description = "sideslip-fmu model"
@@ -156,9 +176,16 @@ class SideslipSlave(Fmi2Slave):
     default_step = 1e-3
     default_stop = 20.0
 
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        spec = fmu_spec(cls.__name__)
+        cls.spec, cls.role, cls.description = spec, spec.role, spec.description
+        cls.model_class, cls.config_class = spec.model_class, spec.config_class
+
     # ------------------------------------------------------------------ declaration
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        _leave_sys_path(kwargs.get("resources"))
         self.default_experiment = DefaultExperiment(start_time=0.0, stop_time=self.default_stop,
                                                     step_size=self.default_step)
         self._vals: list = []            # parameter values by value reference (None for ports)

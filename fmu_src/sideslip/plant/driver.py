@@ -23,23 +23,20 @@ import numpy as np
 
 from ..model import Model
 from ..params import ParameterError, check, param
-from ..signals import DRIVER_OUTPUTS
-from ..vehicles import GRAVITY, VehicleParams, load_vehicle
+from ..constants import GRAVITY
+from ..signals import DRIVER_INPUTS, DRIVER_OUTPUTS
+from ..vehicles import VehicleConfig, VehicleParams
 from .maneuvers import TimeTable, parse_maneuver
 
-__all__ = ["DriverConfig", "Driver", "DRIVER_INPUTS"]
-
-DRIVER_INPUTS = ("vx", "X", "Y", "yaw")
+__all__ = ["DriverConfig", "Driver"]
 
 
 @dataclass(frozen=True)
-class DriverConfig:
+class DriverConfig(VehicleConfig):
     """Parameters of the driver FMU / :class:`Driver`."""
 
-    vehicle: str = param("pi2011_suv", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
-    vehicle_overrides: str = param("", "Dimensionless", "Vehicle parameter overrides, e.g. 'm=2000'")
     maneuver: str = param("straight:v0=20,v=20", "Dimensionless",
-                          "Maneuver spec 'name:key=value,...' (see README, maneuvers)")
+                          "Maneuver spec 'name:key=value,...' (see sideslip.plant.maneuvers)")
     road_mu: str = param("1.0", "Dimensionless", "Friction: a number or a time table 't0:v0, t1:v1, ...'")
     road_bank: str = param("0", "Dimensionless", "Bank angle [rad]: a number or a time table")
     wind_force: str = param("0", "Dimensionless", "Lateral wind force [N]: a number or a time table")
@@ -80,7 +77,7 @@ class Driver(Model):
 
     def __init__(self, config: DriverConfig | None = None, vehicle: VehicleParams | None = None):
         self.config = cfg = config or DriverConfig()
-        self.vehicle = vehicle or load_vehicle(cfg.vehicle, cfg.vehicle_overrides)
+        self.vehicle = vehicle or cfg.vehicle_params()
         self.maneuver = parse_maneuver(cfg.maneuver)
         self.plan = self.maneuver.plan(self.vehicle)
         self._mu = TimeTable(cfg.road_mu, "road_mu")

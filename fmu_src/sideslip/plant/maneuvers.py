@@ -18,7 +18,7 @@ from dataclasses import dataclass, fields
 from typing import Callable
 
 from ..params import ParameterError, build, check, param, parse_assignments
-from ..vehicles import GRAVITY
+from ..constants import GRAVITY
 from . import paths as P
 
 __all__ = ["Plan", "TimeTable", "MANEUVERS", "parse_maneuver", "maneuver_names"]
@@ -229,7 +229,7 @@ class SineWithDwell(_Base):
 
     The handwheel amplitude is ``factor * A`` where ``A`` is the handwheel angle giving
     0.3 g in the slowly increasing steer test (scenario-specific, see
-    :func:`sideslip.cosim.scenarios.fmvss126_reference_angle`).
+    :func:`sideslip.scenarios.fmvss126_reference_angle`).
     """
 
     v0: float = param(80 / 3.6, "Velocity", "Entry speed (80 km/h)", ge=0, le=70)

@@ -33,12 +33,9 @@ from .. import geomagnetic
 from ..geomagnetic import earth_field
 from ..model import Model
 from ..params import ParameterError, check, param
-from ..signals import SENSOR_OUTPUTS
+from ..signals import SENSOR_INPUTS, SENSOR_OUTPUTS
 
-__all__ = ["SensorConfig", "SensorSuite", "SENSOR_INPUTS", "SO", "parse_windows"]
-
-SENSOR_INPUTS = ("ax", "ay", "yaw_rate", "roll_rate", "delta_f", "omega_fl", "omega_fr", "omega_rl",
-                 "omega_rr", "vx", "vy", "yaw", "roll")
+__all__ = ["SensorConfig", "SensorSuite", "SO", "parse_windows"]
 
 SO = IntEnum("SO", {name.upper(): i for i, name in enumerate(SENSOR_OUTPUTS)})
 SO.__doc__ = "Positions of the sensor outputs (names of :data:`sideslip.signals.SENSOR_OUTPUTS`, upper case)."

@@ -1,6 +1,6 @@
 """Dugoff tire model with combined slip (Pi 2011 eqs 7-10, re-derived) and slip kinematics.
 
-The printed equations 7-10 and 19 of 002_... mix two slip definitions (``(Rw - vx)/vx`` in
+The printed equations 7-10 and 19 of Pi, Chen, Wang, Zhang (2011) mix two slip definitions (``(Rw - vx)/vx`` in
 braking and ``(Rw - vx)/(Rw)`` in traction) with the ``1/(1 + sigma)`` factors of Dugoff's
 braking-only derivation.  Both are the same thing written in *theoretical slip*: slip
 velocity divided by the rolling speed ``R*omega`` (Dugoff, Fancher & Segel 1970):
@@ -48,9 +48,7 @@ def theoretical_slip(v_x: float, v_y: float, omega: float, radius: float, v_min:
         Longitudinal and lateral theoretical slip [-] (positive ``s_x`` = braking).
     """
     rolling = radius * omega
-    den = abs(rolling)
-    if den < v_min:
-        den = v_min
+    den = rolling if rolling > v_min else (-rolling if -rolling > v_min else v_min)   # max(|R w|, v_min)
     return (v_x - rolling) / den, v_y / den
 
 

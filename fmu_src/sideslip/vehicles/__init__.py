@@ -3,7 +3,8 @@
 Each TOML file holds ``[params]`` (the :class:`VehicleParams` fields) and ``[source]``
 (the paper and table, plus an ``assumed`` table giving the reason for every value that
 the paper does not provide).  Load with :func:`load_vehicle` by name or path; override
-single values with ``"m=2000, I_zz=3800"``.
+single values with ``"m=2000, I_zz=3800"``.  Every model configuration that takes a vehicle
+inherits :class:`VehicleConfig` (the parameter pair ``vehicle`` / ``vehicle_overrides``).
 """
 from __future__ import annotations
 
@@ -13,12 +14,10 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
+from ..constants import GRAVITY
 from ..params import ParameterError, build, check, param, parse_assignments
 
-__all__ = ["VehicleParams", "load_vehicle", "vehicle_names", "vehicle_source", "GRAVITY"]
-
-GRAVITY = 9.81
-"""Gravitational acceleration [m/s2] used throughout (as in the papers' tables)."""
+__all__ = ["VehicleParams", "VehicleConfig", "load_vehicle", "vehicle_names", "vehicle_source"]
 
 _DIR = Path(__file__).parent
 
@@ -215,3 +214,19 @@ def load_vehicle(name_or_path: str, overrides: str | dict = "") -> VehicleParams
 def vehicle_source(name_or_path: str) -> dict:
     """The ``[source]`` table of a vehicle file (paper, table, assumed values with reasons)."""
     return dict(_load_file(str(_resolve(name_or_path)))[1])
+
+
+@dataclass(frozen=True)
+class VehicleConfig:
+    """The vehicle of a model configuration: a parameter set and overrides of single values.
+
+    Every config of a model that takes a vehicle (plant, driver, estimators, controllers)
+    inherits these two fields first; a subclass may redeclare ``vehicle`` with another default.
+    """
+
+    vehicle: str = param("pi2011_suv", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
+    vehicle_overrides: str = param("", "Dimensionless", "Vehicle parameter overrides, e.g. 'm=2000, I_zz=3800'")
+
+    def vehicle_params(self) -> VehicleParams:
+        """The configured vehicle, loaded and validated (see :func:`load_vehicle`)."""
+        return load_vehicle(self.vehicle, self.vehicle_overrides)

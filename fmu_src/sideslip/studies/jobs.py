@@ -1,11 +1,13 @@
-"""Many closed loops in parallel: a process pool or a Dask cluster, results as they finish.
+"""The one job runner: many closed loops in parallel on a process pool or a Dask cluster.
 
-Tuning studies run hundreds of closed loops.  :func:`parallel_map` runs a picklable function
-over a list of items on a local process pool (spawned workers, as in
-:func:`sideslip.cosim.paper_tables.run_jobs`) or, given a scheduler address, on a Dask
-distributed cluster, and yields ``(item, result)`` in completion order with a progress bar on
-stderr.  :class:`CsvLog` appends each result to a CSV as it arrives and tells which items a
-previous, interrupted study already finished, so a study resumes where it stopped.
+Paper tables, the control evaluation and the tuning studies all run through
+:func:`parallel_map`: a picklable function over a list of items on a local process pool or,
+given a scheduler address, on a Dask distributed cluster, yielding ``(item, result)`` in
+completion order with an optional progress bar on stderr; :func:`map_ordered` returns the
+results in the items' order.  Local workers are spawned, not forked: a forked child would
+inherit the parent's loaded FMUs and pythonfmu's interpreter state, which is not fork-safe.
+:class:`CsvLog` appends each result to a CSV as it arrives and tells which items a previous,
+interrupted study already finished, so a study resumes where it stopped.
 """
 from __future__ import annotations
 
@@ -17,7 +19,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
-__all__ = ["parallel_map", "CsvLog", "ProgressBar"]
+__all__ = ["parallel_map", "map_ordered", "CsvLog", "ProgressBar"]
 
 
 class ProgressBar:
@@ -63,42 +65,40 @@ def parallel_map(fn: Callable, items: Iterable, workers: int = 2, scheduler: str
     if scheduler is not None:
         yield from _dask_map(fn, items, scheduler, bar)
         return
-    if workers <= 1:
+    if workers <= 1 or len(items) == 1:
         for item in items:
             result = fn(item)
             if bar:
                 bar.update()
             yield item, result
         return
-    # spawn: pythonfmu's in-process interpreter state is not fork-safe (see paper_tables.run_jobs)
-    saved = list(sys.path)
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-    try:
-        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
-            futures = {pool.submit(fn, item): item for item in items}
-            for fut in as_completed(futures):
-                result = fut.result()
-                if bar:
-                    bar.update()
-                yield futures[fut], result
-    finally:
-        sys.path[:] = saved
+    with ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=get_context("spawn")) as pool:
+        futures = {pool.submit(fn, item): item for item in items}
+        for fut in as_completed(futures):
+            result = fut.result()
+            if bar:
+                bar.update()
+            yield futures[fut], result
 
 
-def _prefer_package(root: str) -> None:
-    """On a worker: import this project's package from ``root`` (if it exists there).
+class _Indexed:
+    """``fn`` applied to the item of an ``(index, item)`` pair, keeping the index (picklable)."""
 
-    A local cluster's workers start with the sys.path of the process that created them, where
-    every FMU loaded so far has put its resources/ folder (a copy of the package without the FMU
-    wrappers) in front; the registry of such a copy finds no FMUs.
-    """
-    if Path(root).is_dir():
-        if root in sys.path:
-            sys.path.remove(root)
-        sys.path.insert(0, root)
-        for name in [m for m in sys.modules if m == "sideslip" or m.startswith("sideslip.")]:
-            if not str(getattr(sys.modules[name], "__file__", "") or "").startswith(root):
-                del sys.modules[name]
+    def __init__(self, fn: Callable):
+        self.fn = fn
+
+    def __call__(self, pair):
+        return self.fn(pair[1])
+
+
+def map_ordered(fn: Callable, items: Iterable, workers: int = 2, scheduler: str | None = None,
+                progress: bool = False, label: str = "runs") -> list:
+    """``[fn(item) for item in items]`` computed by :func:`parallel_map` (results in the items' order)."""
+    pairs = list(enumerate(items))
+    results = [None] * len(pairs)
+    for (i, _), result in parallel_map(_Indexed(fn), pairs, workers, scheduler, progress, label):
+        results[i] = result
+    return results
 
 
 def _dask_map(fn, items, scheduler, bar):
@@ -106,7 +106,6 @@ def _dask_map(fn, items, scheduler, bar):
 
     client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
     try:
-        client.run(_prefer_package, str(Path(__file__).resolve().parents[2]))
         futures = client.map(fn, items, pure=False)
         index = {f.key: i for i, f in enumerate(futures)}
         for fut, result in dask_completed(futures, with_results=True):

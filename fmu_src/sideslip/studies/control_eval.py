@@ -1,7 +1,7 @@
 """Closed-loop evaluation of the LQR direct-yaw-moment controller (FMVSS 126 and two more scenarios).
 
 Every scenario runs with no control, with ``LqrDycController`` on the plant's true sideslip,
-and with the controller on each estimator's ``beta_hat`` (every estimator FMU registered).
+and with the controller on each estimator's ``beta_hat`` (every estimator FMU of the catalogue).
 
 * FMVSS 126 (49 CFR 571.126 S5.2, S7.7, S7.11): the yaw rate 1.00 s and 1.75 s after the
   completion of steer must be below 35 % and 20 % of the first yaw-rate peak after the steering
@@ -24,12 +24,11 @@ from ..bicycle import BicycleModel
 from ..control.dyc import LqrDycConfig
 from ..control.reference import ReferenceModel
 from ..fmi.build import DEFAULT_OUT
-from ..fmi.registry import fmu_names
-from ..vehicles import load_vehicle
+from ..fmi.catalogue import fmu_names
 from ..plant.maneuvers import parse_maneuver
-from .paper_tables import run_jobs
-from .runner import run_scenario
-from .scenarios import FMVSS_FACTORS, get_scenario
+from ..scenarios import FMVSS_FACTORS, get_scenario
+from ..vehicles import load_vehicle
+from .runs import run_jobs, run_scenario
 
 __all__ = ["TUNING_MANEUVERS", "evaluate_weights", "steer_times", "FMVSS_FACTORS", "fmvss126_metrics", "control_metrics", "control_evaluation", "format_control_evaluation",
            "scenario_mu", "CONTROLLER"]

@@ -1,9 +1,10 @@
-"""Run a named scenario in closed loop: driver, plant, sensors, estimators, controller.
+"""Runs of a scenario: one closed loop of FMUs, many on the job runner, or the library loop without FMI.
 
-Estimators and controllers are FMUs of the registry (``role = "estimator"`` /
-``"controller"``); each receives the scenario's vehicle and every scenario hint that matches
-one of its parameters (``Ts``, ``mu``, ...), so adding an estimator to a run is naming it.
-When several estimators run, the first one feeds the controller unless told otherwise.
+* :func:`run_scenario` - a scenario's loop (:func:`~sideslip.cosim.assembly.scenario_components`)
+  on the fmpy or the libcosim master, with the estimators' metrics and, optionally, the files
+  ``results.csv``, ``metrics.json`` and ``sideslip.png``;
+* :func:`run_jobs` - many such runs on :mod:`sideslip.studies.jobs` (the FMUs built once first);
+* :func:`run_library` - the same loop with the library classes instead of FMUs.
 """
 from __future__ import annotations
 
@@ -12,104 +13,17 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..fmi.build import DEFAULT_OUT
-from ..fmi.registry import fmu_entry, fmu_names
-from ..params import declared_fields
-from .master import Component, CoSimulation, Results
+import numpy as np
+
+from ..cosim.assembly import DRIVER, PLANT, SENSORS, estimator_instances, scenario_components
+from ..cosim.master import CoSimulation
+from ..cosim.results import Results
+from ..fmi.build import DEFAULT_OUT, ensure_fmus
+from ..scenarios import Scenario, get_scenario, scenario_params
+from .jobs import map_ordered
 from .metrics import estimate_metrics, format_table, scenario_summary
-from .scenarios import Scenario, get_scenario
 
-__all__ = ["scenario_components", "scenario_params", "run_scenario", "run_library", "RunOutput"]
-
-PLANT, SENSORS, DRIVER = "VehiclePlant", "VehicleSensors", "ManeuverDriver"
-TRUTH_SOURCE = {"beta": "beta_hat", "vx": "vx_hat"}
-"""Plant truth -> controller input when the controller runs on the true sideslip (``control_source="truth"``)."""
-
-
-_CALIBRATION = ("mag_inclination", "mag_declination")
-"""Sensor parameters an estimator with a parameter of the same name takes over from the scenario."""
-
-
-def scenario_params(config_class, scenario: Scenario) -> dict:
-    """Parameters a model with ``config_class`` takes from the scenario: its vehicle, the Earth field
-    of its magnetometer (a calibration, like the vehicle parameters) and its hints."""
-    names = {f.name for f, _ in declared_fields(config_class)}
-    params = {"vehicle": scenario.vehicle} if "vehicle" in names else {}
-    if "vehicle_overrides" in names and scenario.vehicle_overrides:
-        params["vehicle_overrides"] = scenario.vehicle_overrides
-    params.update({k: v for k, v in scenario.sensors.items() if k in _CALIBRATION and k in names})
-    params.update({k: v for k, v in scenario.hints.items() if k in names})
-    return params
-
-
-def _auto_params(fmu: str, scenario: Scenario) -> dict:
-    """Parameters an estimator/controller FMU takes from the scenario (vehicle and hints)."""
-    return scenario_params(fmu_entry(fmu).slave_class.config_class, scenario)
-
-
-def estimator_instances(estimators) -> list[tuple[str, str]]:
-    """``(instance, FMU name)`` of estimator specs ``"FMU"`` or ``"instance=FMU"``."""
-    return [tuple(e.split("=", 1)) if "=" in e else (e, e) for e in estimators]
-
-
-def scenario_components(scenario: Scenario, estimators=(), controller: str | None = None,
-                        params: dict | None = None, control_source: str | None = None):
-    """Components and explicit connections of a scenario run.
-
-    Parameters
-    ----------
-    scenario : Scenario
-    estimators : iterable of str
-        Estimator FMU names (instance name = FMU name), or ``"instance=FMU"`` to run one FMU
-        several times under different names (e.g. ``"srkf=Nguyen2012DACMRKF"``).
-    controller : str, optional
-        Controller FMU name (instance ``controller``).
-    params : dict, optional
-        ``{"instance.parameter": value}`` overrides of FMU parameters.
-    control_source : str, optional
-        Estimator instance feeding the controller (default: the first), or ``"truth"``: the
-        plant's true ``beta`` and ``vx`` (the default without estimators).
-
-    Returns
-    -------
-    list of Component, list of (str, str)
-    """
-    pairs = estimator_instances(estimators)
-    estimators = [inst for inst, _ in pairs]
-    known = set(fmu_names("estimator"))
-    for _, fmu in pairs:
-        if fmu not in known:
-            raise KeyError(f"unknown estimator {fmu!r}; estimators: {', '.join(sorted(known)) or 'none yet'}")
-    comps = [Component(DRIVER, "driver", scenario.driver_params()),
-             Component(PLANT, "plant", scenario.plant_params()),
-             Component(SENSORS, "sensors", scenario.sensor_params())]
-    comps += [Component(fmu, inst, _auto_params(fmu, scenario)) for inst, fmu in pairs]
-    connections = []
-    if controller:
-        if controller not in fmu_names("controller"):
-            raise KeyError(f"unknown controller {controller!r}; controllers: {', '.join(fmu_names('controller'))}")
-        comps.append(Component(controller, "controller", _auto_params(controller, scenario)))
-        inputs = set(fmu_entry(controller).inputs)
-        source = control_source or (estimators[0] if estimators else "truth")
-        if not inputs & set(TRUTH_SOURCE.values()):
-            pass                                     # the controller estimates for itself
-        elif source == "truth":
-            for truth, name in TRUTH_SOURCE.items():
-                if name in inputs:
-                    connections.append((f"plant.{truth}", f"controller.{name}"))
-        elif source not in dict(pairs):
-            raise KeyError(f"control source {source!r}: use 'truth' or one of the estimators {', '.join(estimators)}")
-        elif len(estimators) > 1:
-            for name in inputs & set(fmu_entry(dict(pairs)[source]).outputs):
-                connections.append((f"{source}.{name}", f"controller.{name}"))
-    for key, value in (params or {}).items():
-        inst, _, name = key.partition(".")
-        match = [c for c in comps if c.name == inst]
-        if not match or not name:
-            raise KeyError(f"parameter override {key!r}: use <instance>.<parameter> with instance one of "
-                           + ", ".join(c.name for c in comps))
-        match[0].parameters[name] = value
-    return comps, connections
+__all__ = ["run_scenario", "run_jobs", "run_library", "RunOutput"]
 
 
 @dataclass
@@ -136,7 +50,7 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
     scenario : str or Scenario
         Registry name or object.
     estimators, controller, params, control_source
-        See :func:`scenario_components`.
+        See :func:`~sideslip.cosim.assembly.scenario_components`.
     out_dir : path, optional
         Where to write the files; nothing is written when omitted.
     duration : float, optional
@@ -159,7 +73,7 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
     run_for = duration if duration is not None else sc.duration
     t0 = time.perf_counter()
     if master == "libcosim":
-        from .libcosim_master import run_libcosim
+        from ..cosim.libcosim_master import run_libcosim
 
         res = run_libcosim(comps, conns, duration=run_for, step=step, fmu_dir=fmu_dir)
     elif master == "fmpy":
@@ -188,6 +102,34 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
         (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
         plot_sideslip(res, list(estimators), out / "sideslip.png", title=f"{sc.name}: {sc.description}")
     return RunOutput(res, metrics)
+
+
+def _job(args):
+    """One closed-loop run in a worker: metrics plus the requested recorded fields."""
+    scenario, estimators, overrides, params, fields, fmu_dir, duration, options = args
+    run = run_scenario(scenario, estimators, fmu_dir=fmu_dir, overrides=overrides, params=params,
+                       duration=duration, **options)
+    res = run.results
+    return run.metrics, {f: np.asarray(res[f], dtype=float) for f in ("time", *fields)}
+
+
+def run_jobs(jobs, fmu_dir=DEFAULT_OUT, workers: int = 2, scheduler=None) -> list:
+    """Run ``(scenario, estimators, overrides, params, fields[, duration[, options]])`` jobs in parallel.
+
+    ``options`` are more keyword arguments of :func:`run_scenario` (``controller``,
+    ``control_source``).  The FMUs are built (if out of date) before the workers start.
+
+    Returns
+    -------
+    list of (dict, dict)
+        Per job, in order: the run's metrics and ``{field: array}`` of ``fields``.
+    """
+    names = {inst_fmu[1] for job in jobs for inst_fmu in estimator_instances(job[1])} | {PLANT, SENSORS, DRIVER}
+    names |= {job[6]["controller"] for job in jobs if len(job) > 6 and job[6].get("controller")}
+    ensure_fmus(sorted(names), fmu_dir)
+    args = [(*job[:5], str(fmu_dir), job[5] if len(job) > 5 else None, job[6] if len(job) > 6 else {})
+            for job in jobs]
+    return map_ordered(_job, args, workers, scheduler)
 
 
 def run_library(scenario: str | Scenario, estimators=(), duration: float | None = None, step: float = 1e-3,

@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import statistics
 
+from ..cosim.assembly import scenario_components
+from ..cosim.master import CoSimulation
 from ..fmi.build import DEFAULT_OUT
-from ..fmi.registry import fmu_entry, fmu_names
-from .master import CoSimulation
-from .runner import scenario_components
-from .scenarios import get_scenario
+from ..fmi.catalogue import fmu_names, fmu_spec
+from ..scenarios import get_scenario
 
 __all__ = ["run_bench", "format_bench"]
 
@@ -23,7 +23,7 @@ BENCH_SCENARIO = "park2018_case2"
 
 
 def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEFAULT_OUT, repeats: int = 3) -> dict:
-    """Benchmark every registered FMU and the driver + plant + sensors loop.
+    """Benchmark every FMU of the catalogue and the driver + plant + sensors loop.
 
     Returns
     -------
@@ -49,7 +49,7 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
 
     def profile(estimators, controller, names):
         # every estimator at its own default sample period, not the scenario's hint for Park 2018
-        params = {f"{e}.Ts": fmu_entry(e).slave_class.config_class().Ts for e in estimators}
+        params = {f"{e}.Ts": fmu_spec(e).config_class().Ts for e in estimators}
         comps, conns = scenario_components(sc, estimators, controller, params=params)
         for _ in range(repeats):
             with CoSimulation(comps, conns, step=step, fmu_dir=fmu_dir) as sim:

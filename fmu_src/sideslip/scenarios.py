@@ -2,9 +2,9 @@
 
 Each scenario follows the paper it reproduces and says where every choice comes from
 (``source`` and ``notes``).  A scenario yields the parameter dictionaries of the driver,
-plant and sensors FMUs (also usable with the library classes directly), so the FMU and
-library runs of a scenario are configured identically.  Importing this module does not
-import fmpy.
+plant and sensors FMUs (also usable with the library classes directly), and
+:func:`scenario_params` gives any estimator or controller what it takes from the scenario, so
+the FMU and library runs of a scenario are configured identically.
 """
 from __future__ import annotations
 
@@ -13,12 +13,13 @@ import math
 from dataclasses import dataclass, field
 from functools import lru_cache
 
-from ..params import ParameterError
-from ..plant.maneuvers import maneuver_spec as _spec
-from ..plant.maneuvers import parse_maneuver
-from ..vehicles import GRAVITY
+from .params import ParameterError, declared_fields, parse_assignments
+from .plant.maneuvers import maneuver_spec as _spec
+from .plant.maneuvers import parse_maneuver
+from .constants import GRAVITY, STANDARD_GRAVITY
 
-__all__ = ["FMVSS_FACTORS", "Scenario", "SCENARIOS", "get_scenario", "scenario_names", "fmvss126_reference_angle"]
+__all__ = ["FMVSS_FACTORS", "Scenario", "SCENARIOS", "get_scenario", "scenario_names", "fmvss126_reference_angle",
+           "scenario_params"]
 
 _DEG = math.pi / 180.0
 _KMH = 1.0 / 3.6
@@ -90,8 +91,8 @@ class Scenario:
     def with_overrides(self, **values) -> "Scenario":
         """A copy with fields replaced; ``maneuver_<key>=v`` edits one maneuver parameter and
         ``sensor_<key>=v`` one sensor parameter."""
-        man = dict(item.split("=", 1) for item in self.maneuver.partition(":")[2].split(",") if item)
-        name = self.maneuver.partition(":")[0]
+        name, _, spec = self.maneuver.partition(":")
+        man = parse_assignments(spec, "maneuver")
         sensors = dict(self.sensors)
         plain = {}
         for key, val in values.items():
@@ -123,7 +124,7 @@ def _add(sc: Scenario) -> None:
 
 
 # ------------------------------------------------------------------------------------------------
-# Park et al. 2018 (000_...), Table 2; vehicle Table 1; sensors Section 6.1
+# Park, Choi, Hyun, Lee 2018, Table 2; vehicle Table 1; sensors Section 6.1
 # ------------------------------------------------------------------------------------------------
 _PARK_SENSORS = dict(
     seed=2018, imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0,        # in-vehicle sensors every 10 ms
@@ -187,7 +188,7 @@ _add(Scenario(
     hints={"Ts": 0.01, "mu": 0.3}))
 
 # ------------------------------------------------------------------------------------------------
-# Yoon & Peng 2014 (001_...), Table II simulation set-up
+# Yoon & Peng 2014, Table II simulation set-up
 # ------------------------------------------------------------------------------------------------
 _YOON_SENSORS = dict(
     seed=2014, imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0, mag_rate=100.0,
@@ -239,7 +240,7 @@ for _m in ("slc", "dlc", "slalom", "jturn"):
             _add(_yoon(_m, _r, _b))
 
 # ------------------------------------------------------------------------------------------------
-# Pi et al. 2011 (002_...), Section 5
+# Pi, Chen, Wang, Zhang 2011, Section 5
 # ------------------------------------------------------------------------------------------------
 _PI_SENSORS = dict(seed=2011, imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0,
                    ay_sigma=0.1, yaw_rate_sigma=0.005, ax_sigma=0.1, roll_rate_sigma=0.005,
@@ -256,7 +257,7 @@ for _nm, _mu, _v in (("high", 0.8, 22.22), ("medium", 0.5, 16.67), ("low", 0.2, 
         8.0, road_mu=f"{_mu}", sensors=_PI_SENSORS, notes=_PI_NOTES, hints={"mu": _mu}))
 
 # ------------------------------------------------------------------------------------------------
-# Nguyen et al. 2012 (003_...), Section V
+# Nguyen, Wang, Fujimoto, Hori 2012, Section V
 # ------------------------------------------------------------------------------------------------
 _NGUYEN_SENSORS = dict(seed=2012, imu_rate=1000.0, wheel_rate=1000.0, steer_rate=1000.0,
                        yaw_rate_sigma=0.003, ay_sigma=0.05, ax_sigma=0.05, steer_sigma=0.0005,
@@ -279,7 +280,7 @@ _add(Scenario(
     sensors=_NGUYEN_SENSORS, notes=_NGUYEN_NOTES, hints={"Ts": 0.001}))
 
 # ------------------------------------------------------------------------------------------------
-# Kim et al. 2016 (004_...), Section 3: ~3 km track, speed below 40 or 80 km/h
+# Kim, Yoon, Kim 2016, Section 3: ~3 km track, speed below 40 or 80 km/h
 # ------------------------------------------------------------------------------------------------
 _KIM_SENSORS = dict(seed=2016, imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0,
                     ax_sigma=1.0, ay_sigma=1.0, yaw_rate_sigma=0.1, roll_rate_sigma=0.1, steer_sigma=0.001,
@@ -316,20 +317,20 @@ def fmvss126_reference_angle(vehicle: str = "pi2011_suv", mu: float = 0.5) -> fl
     """
     import numpy as np
 
-    from ..plant.driver import Driver, DriverConfig
-    from ..plant.loop import run_loop
-    from ..plant.vehicle import PlantConfig, VehiclePlant
+    from .plant.driver import Driver, DriverConfig
+    from .plant.loop import run_loop
+    from .plant.vehicle import PlantConfig, VehiclePlant
 
     spec = _spec("slowly_increasing_steer", t_start=2.0, duration=25.0)
     driver = Driver(DriverConfig(vehicle=vehicle, maneuver=spec, road_mu=f"{mu}"))
     plant = VehiclePlant(PlantConfig(vehicle=vehicle, vx0=80 * _KMH))
     res = run_loop(plant, driver, 25.0)
     ay = np.convolve(res["ay"], np.ones(100) / 100, mode="same")
-    hit = np.nonzero(ay >= 0.3 * 9.80665)[0]
+    hit = np.nonzero(ay >= 0.3 * STANDARD_GRAVITY)[0]
     if hit.size == 0:
         raise RuntimeError(f"{vehicle} on mu {mu} does not reach 0.3 g in the SIS test")
     i = hit[0]
-    w = (0.3 * 9.80665 - ay[i - 1]) / (ay[i] - ay[i - 1])
+    w = (0.3 * STANDARD_GRAVITY - ay[i - 1]) / (ay[i] - ay[i - 1])
     return float(res["delta_sw"][i - 1] + w * (res["delta_sw"][i] - res["delta_sw"][i - 1]))
 
 
@@ -376,3 +377,19 @@ def get_scenario(name: str, **overrides) -> Scenario:
         raise ParameterError("scenario", name, "one of " + ", ".join(scenario_names()))
     sc = SCENARIOS[name]
     return sc.with_overrides(**overrides) if overrides else sc
+
+
+_CALIBRATION = ("mag_inclination", "mag_declination")
+"""Sensor parameters an estimator with a parameter of the same name takes over from the scenario."""
+
+
+def scenario_params(config_class, scenario: Scenario) -> dict:
+    """Parameters a model with ``config_class`` takes from the scenario: its vehicle, the Earth field
+    of its magnetometer (a calibration, like the vehicle parameters) and its hints."""
+    names = {f.name for f, _ in declared_fields(config_class)}
+    params = {"vehicle": scenario.vehicle} if "vehicle" in names else {}
+    if "vehicle_overrides" in names and scenario.vehicle_overrides:
+        params["vehicle_overrides"] = scenario.vehicle_overrides
+    params.update({k: v for k, v in scenario.sensors.items() if k in _CALIBRATION and k in names})
+    params.update({k: v for k, v in scenario.hints.items() if k in names})
+    return params

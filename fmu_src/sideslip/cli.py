@@ -1,10 +1,12 @@
-"""Command line: ``python -m sideslip {list,run,demo,bench,paper,control,export-ssp,build,fmu-tables}``.
+"""Command line: ``python -m sideslip {list,run,demo,bench,paper,control,export-ssp,build,docs}``.
 
 ``run`` writes ``DIR/results.csv``, ``DIR/metrics.json`` and ``DIR/sideslip.png`` and prints
-a metrics table; ``demo`` is ``run`` on a default scenario with every registered estimator;
-``bench`` prints microseconds per communication step per FMU and the closed-loop real-time
-factor; ``paper`` reproduces a paper's result tables with the FMUs; ``export-ssp`` writes a
-scenario's closed loop as an SSP 1.0 package; ``run --master libcosim`` runs it with libcosim.  FMUs are built on first
+a metrics table; ``demo`` is ``run`` on a default scenario with every estimator of the FMU
+catalogue; ``bench`` prints microseconds per communication step per FMU and the closed-loop
+real-time factor; ``paper`` reproduces a paper's result tables with the FMUs (dispatching to
+:data:`sideslip.studies.papers.PAPERS`); ``control`` evaluates the yaw-moment controller;
+``export-ssp`` writes a scenario's closed loop as an SSP 1.0 package; ``run --master libcosim``
+runs it with libcosim; ``docs`` writes the per-FMU reference pages.  FMUs are built on first
 use (``build/fmus``).
 """
 from __future__ import annotations
@@ -19,20 +21,20 @@ __all__ = ["main"]
 DEMO_SCENARIO = "park2018_case2"
 
 
-def _kv(items, what):
-    out = {}
-    for item in items or []:
-        if "=" not in item:
-            raise SystemExit(f"{what}: expected key=value, got {item!r}")
-        k, v = item.split("=", 1)
-        out[k.strip()] = v.strip()
-    return out
+def _kv(items, what) -> dict:
+    """``{key: value}`` of repeated ``KEY=VALUE`` options."""
+    from .params import ParameterError, parse_assignment
+
+    try:
+        return dict(parse_assignment(item, what) for item in items or [])
+    except ParameterError as exc:
+        raise SystemExit(f"{what}: expected KEY=VALUE, got {exc.value!r}") from None
 
 
 def _cmd_list(args) -> int:
-    from ..fmi.registry import fmu_entries
-    from ..plant.maneuvers import maneuver_names
-    from ..vehicles import vehicle_names
+    from .fmi.catalogue import CATALOGUE
+    from .plant.maneuvers import maneuver_names
+    from .vehicles import vehicle_names
     from .scenarios import SCENARIOS, get_scenario, scenario_names
 
     print("scenarios:")
@@ -43,7 +45,7 @@ def _cmd_list(args) -> int:
         sc = get_scenario(name)
         print(f"  {name:34s} {sc.vehicle:16s} {sc.duration:6.0f} s  {sc.description}  [{sc.source}]")
     print("\nFMUs:")
-    for name, e in sorted(fmu_entries().items(), key=lambda kv: (kv[1].role, kv[0])):
+    for name, e in sorted(CATALOGUE.items(), key=lambda kv: (kv[1].role, kv[0])):
         print(f"  {name:24s} {e.role:11s} {len(e.inputs):3d} inputs {len(e.outputs):3d} outputs")
     print("\nvehicles:  " + ", ".join(vehicle_names()))
     print("maneuvers: " + ", ".join(maneuver_names()))
@@ -52,9 +54,9 @@ def _cmd_list(args) -> int:
 
 def _sensor_offsets(scenario: str, overrides: dict) -> str:
     """The scenario's non-zero sensor biases, e.g. ``yaw_rate 0.00873 rad/s``."""
-    from ..params import declared_fields
-    from ..plant.sensors import SensorConfig
-    from ..units import unit_of_quantity
+    from .params import declared_fields
+    from .plant.sensors import SensorConfig
+    from .units import unit_of_quantity
     from .scenarios import get_scenario
 
     sensors = get_scenario(scenario, **(overrides or {})).sensors
@@ -65,16 +67,16 @@ def _sensor_offsets(scenario: str, overrides: dict) -> str:
 
 def _assumptions(estimators) -> list[tuple[str, str]]:
     """``(instance, needs)`` of the run's estimators that state sensor assumptions."""
-    from ..fmi.registry import fmu_entry
-    from .runner import estimator_instances
+    from .cosim.assembly import estimator_instances
+    from .fmi.catalogue import fmu_spec
 
-    found = [(inst, getattr(fmu_entry(fmu).slave_class.model_class, "needs", ""))
+    found = [(inst, getattr(fmu_spec(fmu).model_class, "needs", ""))
              for inst, fmu in estimator_instances(estimators)]
     return [(inst, text) for inst, text in found if text]
 
 
 def _run(args, estimators, out_dir) -> int:
-    from .runner import run_scenario
+    from .studies.runs import run_scenario
 
     def progress(frac):
         print(f"\r  {frac * 100:5.1f} %", end="", file=sys.stderr, flush=True)
@@ -122,14 +124,14 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_demo(args) -> int:
-    from ..fmi.registry import fmu_names
+    from .fmi.catalogue import fmu_names
 
     args.scenario = args.scenario or DEMO_SCENARIO
     return _run(args, fmu_names("estimator"), args.out or str(Path("out") / "demo"))
 
 
 def _cmd_bench(args) -> int:
-    from .bench import format_bench, run_bench
+    from .studies.bench import format_bench, run_bench
 
     b = run_bench(duration=args.duration, fmu_dir=args.fmu_dir)
     print(json.dumps(b, indent=2) if args.json else format_bench(b))
@@ -137,55 +139,35 @@ def _cmd_bench(args) -> int:
 
 
 def _cmd_paper(args) -> int:
-    from . import paper_tables as pt
+    from .studies.papers import PAPERS
 
+    paper = PAPERS[args.name]
     params = _kv(args.param, "--param")
-    out = {}
-    if params and args.name not in ("park2018", "nguyen2012", "pi2011"):
-        raise SystemExit(f"--param applies to park2018, nguyen2012 and pi2011, not {args.name}")
-    if args.name == "nguyen2012":
-        out["accuracy"] = acc = pt.nguyen2012_accuracy(args.fmu_dir, args.workers,
-                                                       params={k.split(".", 1)[-1]: v for k, v in params.items()})
-        text = ["Nguyen 2012 Table III: sideslip RMSD [rad] (paper in parentheses)", "",
-                pt.format_nguyen2012_accuracy(acc)]
-    elif args.name == "pi2011":
-        out["accuracy"] = acc = pt.pi2011_accuracy(args.fmu_dir, args.workers, params=params or None)
-        text = ["Pi 2011 Table 4: normalised sideslip error (eq 48), max / mean [%] (paper in parentheses)", "",
-                pt.format_pi2011_accuracy(acc)]
-    elif args.name == "yoon2014":
-        out["accuracy"] = acc = pt.yoon2014_accuracy(args.fmu_dir, args.workers,
-                                                     scenarios=args.extra or pt.YOON_SCENARIOS)
-        text = ["Yoon 2014: sideslip RMS [deg] of the method and its ablations", "", pt.format_yoon2014_accuracy(acc)]
-    elif args.name == "park2018":
-        out["accuracy"] = acc = pt.park2018_accuracy(args.fmu_dir, args.workers, params=params or None)
-        out["gps_outage"] = outage = pt.park2018_gps_outage(args.fmu_dir, workers=args.workers)
-        text = ["Park 2018 Table 3: sideslip error RMS / max [deg]", "", pt.format_park2018_accuracy(acc), "",
-                pt.format_park2018_gps_outage(outage)]
-    else:
-        out["accuracy"] = acc = pt.kim2016_accuracy(args.fmu_dir, args.workers, extra_scenarios=args.extra or ())
-        out["fault_detection"] = faults = pt.kim2016_fault_detection(args.fmu_dir, args.workers)
-        text = ["Kim 2016 Table 3: RMSE", "", pt.format_kim2016_accuracy(acc), "",
-                "Steering-sensor faults", "", pt.format_kim2016_fault_detection(faults)]
-    print(json.dumps(out, indent=2, default=str) if args.json else "\n".join(text))
+    if params and not paper.ACCEPTS_PARAMS:
+        accepting = ", ".join(n for n, m in PAPERS.items() if m.ACCEPTS_PARAMS)
+        raise SystemExit(f"--param applies to {accepting}, not {args.name}")
+    figures, text = paper.report(args.fmu_dir, args.workers, params, args.extra or ())
+    print(json.dumps(figures, indent=2, default=str) if args.json else text)
     return 0
 
 
-def _cmd_fmu_tables(args) -> int:
-    from ..fmi.docs import fmu_tables_markdown
+def _cmd_docs(args) -> int:
+    from .fmi.docs import write_fmu_pages
 
-    print(fmu_tables_markdown(), end="")
+    for path in write_fmu_pages(args.out):
+        print(f"wrote {path}")
     return 0
 
 
 def _cmd_build(args) -> int:
-    from ..fmi.build import build_fmus
+    from .fmi.build import build_fmus
 
     build_fmus(args.names or None, args.fmu_dir, force=args.force)
     return 0
 
 
 def _cmd_export_ssp(args) -> int:
-    from .ssp import export_ssp
+    from .cosim.ssp import export_ssp
 
     controller = None if args.controller in (None, "none") else args.controller
     out = export_ssp(args.out, args.scenario, args.estimator or (), controller, params=_kv(args.param, "--param"),
@@ -196,7 +178,7 @@ def _cmd_export_ssp(args) -> int:
 
 
 def _cmd_control(args) -> int:
-    from . import control_eval as ce
+    from .studies import control_eval as ce
 
     factors = tuple(float(f) for f in args.factors.split(",")) if args.factors else ce.FMVSS_FACTORS
     table = ce.control_evaluation(args.fmu_dir, args.workers, sources=args.source, factors=factors,
@@ -208,7 +190,7 @@ def _cmd_control(args) -> int:
 
 def main(argv=None) -> int:
     """Entry point of ``python -m sideslip`` and the ``sideslip`` console script."""
-    from ..fmi.build import DEFAULT_OUT
+    from .fmi.build import DEFAULT_OUT
 
     p = argparse.ArgumentParser(prog="python -m sideslip", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -242,7 +224,8 @@ def main(argv=None) -> int:
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--duration", type=float, default=5.0, help="simulated seconds per measurement")
     paper = sub.add_parser("paper", help="reproduce a paper's result tables with the FMUs in closed loop")
-    paper.add_argument("name", choices=("park2018", "kim2016", "nguyen2012", "pi2011", "yoon2014"))
+    paper.add_argument("name", choices=("park2018", "kim2016", "nguyen2012", "pi2011", "yoon2014"),
+                       help="the paper whose tables to reproduce")
     paper.add_argument("--workers", type=int, default=2, help="parallel runs (default %(default)s)")
     paper.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE",
                        help="estimator parameter override for the accuracy table (ablations)")
@@ -259,7 +242,8 @@ def main(argv=None) -> int:
     ctl.add_argument("--param", action="append", metavar="controller.NAME=VALUE", help="controller parameter")
     ctl.add_argument("--workers", type=int, default=2)
     ctl.add_argument("--json", action="store_true")
-    sub.add_parser("fmu-tables", help="markdown I/O tables of the FMUs (as in the README)")
+    docs = sub.add_parser("docs", help="write the per-FMU reference pages of the documentation (docs/fmus)")
+    docs.add_argument("--out", default="docs/fmus", help="folder of the pages (default %(default)s)")
     ssp = sub.add_parser("export-ssp", help="write a scenario's closed loop as an SSP 1.0 package (FMUs inside)")
     ssp.add_argument("out", metavar="OUT.ssp", help="the package to write")
     ssp.add_argument("--scenario", required=True, help="scenario name (see list)")
@@ -276,7 +260,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     try:
         return {"list": _cmd_list, "run": _cmd_run, "demo": _cmd_demo, "bench": _cmd_bench, "paper": _cmd_paper,
-                "control": _cmd_control, "build": _cmd_build, "export-ssp": _cmd_export_ssp, "fmu-tables": _cmd_fmu_tables}[args.cmd](args)
+                "control": _cmd_control, "build": _cmd_build, "export-ssp": _cmd_export_ssp, "docs": _cmd_docs}[args.cmd](args)
     except (KeyError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

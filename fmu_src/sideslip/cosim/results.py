@@ -1,0 +1,34 @@
+"""Recorded co-simulation results, shared by every master."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Results"]
+
+
+@dataclass
+class Results:
+    """Recorded co-simulation: structured array ``data`` and run metadata ``meta``."""
+
+    data: np.ndarray
+    meta: dict
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.data[name]
+
+    @property
+    def names(self) -> tuple:
+        return self.data.dtype.names
+
+    def keys(self) -> tuple:
+        """Field names (so that a Results reads like a mapping of arrays)."""
+        return self.data.dtype.names
+
+    def to_csv(self, path: str | Path) -> None:
+        """Write all fields as CSV (Booleans as 0/1)."""
+        cols = [self.data[n].astype(float) for n in self.names]
+        np.savetxt(path, np.column_stack(cols), delimiter=",", header=",".join(self.names), comments="",
+                   fmt="%.10g")

@@ -1,0 +1,8 @@
+"""FMU VehicleSensors: the wrapper of its entry in :mod:`sideslip.fmi.catalogue`."""
+from sideslip.fmi.slave import SideslipSlave, keep_module_dict_alive
+
+keep_module_dict_alive(globals())  # see sideslip.fmi.slave.keep_module_dict_alive
+
+
+class VehicleSensors(SideslipSlave):
+    """Model, configuration, role and description come from the catalogue entry of this name."""
