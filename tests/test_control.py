@@ -12,7 +12,7 @@ from sideslip.bicycle import BicycleModel
 from sideslip.control.dyc import LqrDycConfig, LqrDycController, yaw_moment_limit
 from sideslip.control.feedforward import ScheduledFeedforward, feedforward_tf, reference_sideslip, sideslip_responses
 from sideslip.control.lqr import lqr_gains, lqr_row, yaw_moment_model
-from sideslip.constants import STANDARD_GRAVITY
+from sideslip.constants import GRAVITY
 from sideslip.control.reference import ReferenceModel
 from sideslip.control.stability import StabilityController, StabilityControllerConfig
 from sideslip.studies.runs import run_library
@@ -106,7 +106,7 @@ def test_reference_is_the_bicycle_steady_state_and_friction_limited():
     kb, kg = SUV.steady_state_gains(10.0)
     assert ref.step(0.01, 10.0) == pytest.approx((kb * 0.01, kg * 0.01), rel=1e-12)     # linear range
     beta, gamma = ref.step(0.2, 20.0)
-    assert gamma == pytest.approx(0.8 * STANDARD_GRAVITY / 20.0, rel=1e-12)                          # |gamma| <= mu g / vx
+    assert gamma == pytest.approx(0.8 * GRAVITY / 20.0, rel=1e-12)                          # |gamma| <= mu g / vx
     kb, kg = SUV.steady_state_gains(20.0)
     assert beta / gamma == pytest.approx(kb / kg, rel=1e-12)                          # on the steady-state line
     lagged = ReferenceModel(SUV, 0.15, 0.1, 1e-3, mu=0.8)

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 from ..bicycle import BicycleModel
-from ..constants import STANDARD_GRAVITY
+from ..constants import GRAVITY
 
 __all__ = ["ReferenceModel"]
 
@@ -50,7 +50,7 @@ class ReferenceModel:
         """Steady-state ``(beta, gamma)`` targets [rad, rad/s] for steering ``delta`` at ``vx``."""
         k_beta, k_gamma = self.model.steady_state_gains(vx)          # eqs 21-22 without the lags
         beta, gamma = k_beta * delta, k_gamma * delta
-        limit = self.mu * STANDARD_GRAVITY / vx
+        limit = self.mu * GRAVITY / vx
         if abs(gamma) > limit:
             scale = limit / abs(gamma)
             beta, gamma = beta * scale, gamma * scale
