@@ -10,10 +10,11 @@ from sideslip.plant.sensors import SensorConfig, SensorSuite
 from sideslip.plant.vehicle import PlantConfig, VehiclePlant
 
 
-def run(show_plot=True, duration=20.0):
-    """Park 2018 Sonata: 4 s straight, then a 25 m circle at 9 m/s; Park's observer estimates the sideslip."""
+def run(show_plot=True, duration=24.0):
+    """Park 2018 Sonata: 11 s straight (the offset compensator learns the sensor offsets), then a 25 m circle at
+    9 m/s; Park's observer estimates the sideslip."""
     driver = Driver(DriverConfig(vehicle="park2018_sonata",
-                                 maneuver="circle:v0=7,v=9,t_go=4,accel=1,radius=25,lead_in=28"))
+                                 maneuver="circle:v0=7,v=9,t_go=4,accel=1,radius=25,lead_in=90"))
     plant = VehiclePlant(PlantConfig(vehicle="park2018_sonata", vx0=7.0))
     sensors = SensorSuite(SensorConfig(seed=2, ay_sigma=0.05, ay_bias=0.1, yaw_rate_bias=0.005, gps_rate=20.0))
     park = Park2018Observer(Park2018Config(vehicle="park2018_sonata"))

@@ -59,7 +59,9 @@ def _run_c(importer, fmu: Path, tmp: Path, cols, rows, out_vrs, env_extra=None):
     np.savetxt(csv_in, np.column_stack([times, rows]), delimiter=",", header=",".join(["time", *cols]),
                comments="", fmt="%.17g")
     csv_out = tmp / f"{fmu.stem}_out.csv"
-    env = {"PATH": "/usr/bin:/bin", **(env_extra or {})}          # no PYTHONPATH, no LD_PRELOAD
+    # no PYTHONPATH, no LD_PRELOAD; the BLAS kernel choice passed on so that both runs use the same kernels
+    env = {"PATH": "/usr/bin:/bin", **{k: v for k, v in os.environ.items() if k.startswith("OPENBLAS_")},
+           **(env_extra or {})}
     proc = subprocess.run([str(importer), str(unzip), md.coSimulation.modelIdentifier, md.guid, repr(STEP),
                            str(csv_in), str(csv_out), *map(str, out_vrs)], env=env, capture_output=True,
                           text=True, timeout=300)

@@ -8,8 +8,7 @@ from sideslip.bicycle import BicycleModel
 from sideslip.studies.runs import run_library
 from sideslip.scenarios import get_scenario
 from sideslip.estimators import (ESTIMATORS, BicycleObserverConfig, Kim2016Config, Kim2016SteeringEKF,
-                                 LinearBicycleObserver, OpenLoopConfig, OpenLoopKinematic, Park2018Config,
-                                 Park2018Observer)
+                                 LinearBicycleObserver, OpenLoopConfig, OpenLoopKinematic, Park2018Config)
 from sideslip.estimators.base import Estimator, EstimatorConfig, beta_std, input_enum
 from sideslip.estimators.kalman import KalmanFilter
 from sideslip.estimators.kim2016 import kim_f, kim_F, kim_h, kim_H
@@ -17,7 +16,6 @@ from sideslip.estimators.park2018 import (bicycle_f, bicycle_F, bicycle_h, bicyc
                                           kinematic_f, kinematic_F, kinematic_h, kinematic_H, weighting_factor)
 from sideslip.params import ParameterError, build
 from sideslip.signals import ESTIMATOR_COMMON_OUTPUTS
-from sideslip.constants import GRAVITY
 from sideslip.vehicles import load_vehicle
 
 RNG = np.random.default_rng(7)
@@ -364,7 +362,8 @@ def test_covariances_stay_symmetric_positive_definite(scenario):
     for name, cls in ESTIMATORS.items():
         values = {k: v for k, v in sc.hints.items() if k in {f for f in cls.config_class.__dataclass_fields__}}
         probes[name] = CovarianceProbe(cls(build(cls.config_class, {"vehicle": sc.vehicle, **values})))
-    res = run_library(sc, probes)
+    duration = min(sc.duration, 45.0)          # the 3 km track: its first 45 s (launch, straight, first bends)
+    res = run_library(sc, probes, duration=duration)
     filters = [p for n, p in probes.items() if n != "OpenLoopKinematic"]     # the open loop has no covariance
-    assert all(p.checks > 0.5 * sc.duration / p.est.Ts for p in filters)
+    assert all(p.checks > 0.5 * duration / p.est.Ts for p in filters)
     assert all(np.isfinite(res[f"{n}.beta_hat"]).all() for n in probes)

@@ -9,7 +9,7 @@ from sideslip.bicycle import BicycleModel
 from sideslip.scenarios import scenario_params
 from sideslip.studies.runs import run_library
 from sideslip.scenarios import get_scenario
-from sideslip.estimators import (Nguyen2012Config, Nguyen2012DACMRKF, Pi2011Config, Pi2011FuzzyEKF, Yoon2014Config,
+from sideslip.estimators import (Nguyen2012Config, Nguyen2012DACMRKF, Pi2011Config, Yoon2014Config,
                                  Yoon2014DualKF)
 from sideslip.estimators.fuzzy import Mamdani, Trapezoid
 from sideslip.estimators.discrete import SpeedCache, euler as discretize_euler, zoh as discretize_zoh
@@ -88,8 +88,9 @@ def test_dacmrkf_has_one_unobservable_direction_at_constant_speed(coms_model, vx
 
 @pytest.mark.parametrize("mode,n", [("srkf", 2), ("mrkf", 3), ("dacmrkf", 5)])
 def test_nguyen_mode_selects_the_state(mode, n):
-    est = Nguyen2012DACMRKF(Nguyen2012Config(mode=mode))
-    assert est.kf.x.size == n
+    assert Nguyen2012DACMRKF(Nguyen2012Config(mode=mode, profile=0)).kf.x.size == n
+    # hardened: + the gyro offset where the course observes it (the SRKF, without GPS, stays as published)
+    assert Nguyen2012DACMRKF(Nguyen2012Config(mode=mode, profile=1)).kf.x.size == (n + 1 if n > 2 else n)
 
 
 def test_nguyen_rejects_an_unknown_mode():
@@ -101,7 +102,7 @@ def test_nguyen_course_innovation_wraps_through_pi():
     est = Nguyen2012DACMRKF(Nguyen2012Config(mode="mrkf"))
     w = 5.56 / est.vehicle.R_w
     u = dict(yaw_rate_m=0.0, delta_m=0.0, omega_fl_m=w, omega_fr_m=w, omega_rl_m=w, omega_rr_m=w,
-             gps_course=math.pi - 0.01, gps_fresh=1.0, gps_valid=1.0, Mz_cmd=0.0)
+             gps_course=math.pi - 0.01, gps_fresh=1.0, gps_valid=1.0, Mz_cmd=0.0, ay_m=0.0)
     est.step(1e-3, *(u[n] for n in est.input_names))                # first fix: psi = pi - 0.01
     u["gps_course"] = -math.pi + 0.01                                # 0.02 rad further, across the wrap
     for _ in range(400):

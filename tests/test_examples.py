@@ -27,16 +27,19 @@ def test_fmpy_closed_loop():
 
 
 def test_library_only():
-    res = load("library_only").run(show_plot=False, duration=20.0)
+    res = load("library_only").run(show_plot=False)
     # steady turn, body-fixed accelerometer: centripetal part plus gravity through the body roll
     phi = res["roll"][-1]
     expected = np.cos(phi) * res["vx"][-1] * res["yaw_rate"][-1] + np.sin(phi) * 9.81
     assert res["ay"][-1] == pytest.approx(expected, rel=0.01)
     assert res["vx"][-1] == pytest.approx(9.0, abs=0.05)
-    # the estimator stepped next to the plant: offset found, sideslip within 0.1 deg on the circle
+    # the estimator stepped next to the plant (its default, hardened profile): the offset learnt on the
+    # straight, sideslip within 0.1 deg RMS and 0.2 deg at most on the circle (2.6 deg of true sideslip)
     assert -res["park.offset_ay"][-1] == pytest.approx(0.1, abs=0.02)
-    on = res["time"] > 6.0
-    assert np.max(np.abs(res["park.beta_hat"][on] - res["beta"][on])) < np.radians(0.1)
+    on = res["time"] > 12.0
+    err = res["park.beta_hat"][on] - res["beta"][on]
+    assert np.sqrt(np.mean(err ** 2)) < np.radians(0.1) and np.max(np.abs(err)) < np.radians(0.2)
+    assert res["park.valid"][on].all()
 
 
 # ------------------------------------------------------------------------------ tuning studies

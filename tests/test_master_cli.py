@@ -161,7 +161,7 @@ def test_cli_run_names_the_sensor_offsets_and_what_the_estimators_assume(fmu_dir
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "sensor offsets: ay 0.15 m/s2, yaw_rate 0.00873 rad/s\n" in proc.stdout     # ax set to 0
-    assert "  nguyen: an offset-free yaw rate" in proc.stdout
+    assert "  nguyen: as published (profile 0): an offset-free yaw rate" in proc.stdout
     assert "Park2018Observer:" not in proc.stdout                 # compensates its offsets: nothing to say
 
 

@@ -8,7 +8,7 @@ from sideslip.bicycle import BicycleModel
 from sideslip.plant.driver import Driver, DriverConfig
 from sideslip.plant.loop import run_loop
 from sideslip.plant.maneuvers import maneuver_spec
-from sideslip.plant.tires import dugoff, friction, theoretical_slip
+from sideslip.plant.tires import dugoff, friction, magic_formula, practical_slip, theoretical_slip
 from sideslip.plant.dynamics import PlantInputs, PlantModel
 from sideslip.plant.vehicle import PlantConfig, St, VehiclePlant
 from sideslip.constants import GRAVITY
@@ -294,3 +294,68 @@ def test_the_plant_integrates_the_pure_dynamics():
     plant.step(h, delta_f=0.03, T_drive=200.0, Mz_dyc=mz, mu=0.8)
     assert plant.n_substeps == 1
     np.testing.assert_allclose(plant.x, expected, rtol=1e-14, atol=1e-14)
+
+
+# ---------------------------------------------------------------- the Magic Formula tire
+MF = load_vehicle("pi2011_suv").magic_formula("front")
+C_SIGMA, C_ALPHA = 60000.0, 40000.0       # the SUV's per-tire slip stiffnesses
+
+
+def test_magic_formula_slopes_at_zero_slip_are_the_slip_stiffnesses_at_the_nominal_load():
+    h = 1e-7
+    assert magic_formula(MF.Fz0, 1.0, C_SIGMA, C_ALPHA, 0.0, h, MF)[1] / h == pytest.approx(-C_ALPHA, rel=1e-6)
+    assert magic_formula(MF.Fz0, 1.0, C_SIGMA, C_ALPHA, h, 0.0, MF)[0] / h == pytest.approx(C_SIGMA, rel=1e-6)
+    # load dependence: K_y(Fz) = C_alpha sin(2 atan(Fz / (pKy2 Fz0))) / sin(2 atan(1 / pKy2)), less than linear
+    fz = 1.6 * MF.Fz0
+    k = -magic_formula(fz, 1.0, C_SIGMA, C_ALPHA, 0.0, h, MF)[1] / h
+    expected = C_ALPHA * math.sin(2 * math.atan(1.6 / MF.pKy2)) / math.sin(2 * math.atan(1 / MF.pKy2))
+    assert k == pytest.approx(expected, rel=1e-6) and C_ALPHA < k < 1.6 * C_ALPHA
+
+
+@pytest.mark.parametrize("mu, load", [(1.0, 1.0), (0.3, 1.0), (0.8, 1.5)])
+def test_magic_formula_peaks_are_mu_times_the_load_dependent_friction(mu, load):
+    """D = mu (pD1 + pD2 dfz) Fz, reached where C atan(.) = pi/2 (the shape factors are above 1)."""
+    fz = load * MF.Fz0
+    slips = np.linspace(0.0, 0.6, 6001)
+    fy = np.array([-magic_formula(fz, mu, C_SIGMA, C_ALPHA, 0.0, a, MF)[1] for a in slips])
+    fx = np.array([magic_formula(fz, mu, C_SIGMA, C_ALPHA, k, 0.0, MF)[0] for k in slips])
+    dfz = load - 1.0
+    assert fy.max() == pytest.approx(mu * (MF.pDy1 + MF.pDy2 * dfz) * fz, rel=1e-6)
+    assert fx.max() == pytest.approx(mu * (MF.pDx1 + MF.pDx2 * dfz) * fz, rel=1e-6)
+    assert 0 < slips[fy.argmax()] < 0.6 and fy[-1] < fy.max()          # past the peak the force drops
+
+
+def test_magic_formula_combined_slip_reduces_each_force_by_its_weighting_function():
+    alpha, kappa = 0.05, 0.08
+    fx0 = magic_formula(MF.Fz0, 1.0, C_SIGMA, C_ALPHA, kappa, 0.0, MF)[0]
+    fy0 = magic_formula(MF.Fz0, 1.0, C_SIGMA, C_ALPHA, 0.0, alpha, MF)[1]
+    fx, fy = magic_formula(MF.Fz0, 1.0, C_SIGMA, C_ALPHA, kappa, alpha, MF)
+    g_xa = math.cos(MF.rCx1 * math.atan(MF.rBx1 * math.cos(math.atan(MF.rBx2 * kappa)) * alpha))
+    g_yk = math.cos(MF.rCy1 * math.atan(MF.rBy1 * math.cos(math.atan(MF.rBy2 * alpha)) * kappa))
+    assert fx == pytest.approx(g_xa * fx0, rel=1e-12) and fy == pytest.approx(g_yk * fy0, rel=1e-12)
+    assert 0 < fx < fx0 and fy0 < fy < 0
+    # symmetric tire: odd in both slips
+    assert magic_formula(MF.Fz0, 1.0, C_SIGMA, C_ALPHA, -kappa, -alpha, MF) == pytest.approx((-fx, -fy), rel=1e-12)
+
+
+def test_practical_slips_and_the_standstill_damper():
+    kappa, alpha = practical_slip(20.0, 0.5, 60.0, 0.35, 1.0)
+    assert kappa == pytest.approx((0.35 * 60.0 - 20.0) / 20.0) and alpha == pytest.approx(math.atan(0.5 / 20.0))
+    assert practical_slip(0.0, 0.01, 0.0, 0.35, 1.0) == pytest.approx((0.0, math.atan(0.01)))   # v_min below 1 m/s
+
+
+def test_plant_on_magic_formula_tires_has_the_bicycle_gains_in_the_linear_range():
+    """Same cornering stiffness at the static load: at 0.14 g the Magic Formula plant's steady state is
+    within 2 % of the Dugoff plant's (the sublinear load dependence of its cornering stiffness) and
+    within 4 % of the bicycle model's (the Dugoff plant is 2 % off it: rolling resistance and drag)."""
+    steady = {}
+    for tire_model in (0, 1):
+        driver = Driver(DriverConfig(vehicle="pi2011_suv", maneuver="step_steer:v0=20,v=20,amplitude=0.3,"
+                                     "t_start=1,duration=8"))
+        plant = VehiclePlant(PlantConfig(vehicle="pi2011_suv", vx0=20.0, tire_model=tire_model))
+        res = run_loop(plant, driver, 8.0)
+        steady[tire_model] = (res["beta"][-1], res["yaw_rate"][-1], res["delta_f"][-1], res["vx"][-1])
+    beta, r, delta, vx = steady[1]
+    kb, kr = BicycleModel.from_vehicle(load_vehicle("pi2011_suv"), 1.0).steady_state_gains(vx)
+    assert r == pytest.approx(kr * delta, rel=0.04) and beta == pytest.approx(kb * delta, rel=0.04)
+    assert r == pytest.approx(steady[0][1], rel=0.02) and beta == pytest.approx(steady[0][0], rel=0.02)

@@ -1,10 +1,12 @@
-"""Command line: ``python -m sideslip {list,run,demo,bench,paper,control,export-ssp,build,docs}``.
+"""Command line: ``python -m sideslip {list,run,demo,bench,benchmark,replay,paper,control,export-ssp,build,docs}``.
 
 ``run`` writes ``DIR/results.csv``, ``DIR/metrics.json`` and ``DIR/sideslip.png`` and prints
 a metrics table; ``demo`` is ``run`` on a default scenario with every estimator of the FMU
 catalogue; ``bench`` prints microseconds per communication step per FMU and the closed-loop
 real-time factor; ``paper`` reproduces a paper's result tables with the FMUs (dispatching to
 :data:`sideslip.studies.papers.PAPERS`); ``control`` evaluates the yaw-moment controller;
+``benchmark`` scores every estimator on the benchmark's cases (:mod:`sideslip.studies.benchmark`);
+``replay`` runs estimator FMUs on a recorded drive (:mod:`sideslip.studies.logs`);
 ``export-ssp`` writes a scenario's closed loop as an SSP 1.0 package; ``run --master libcosim``
 runs it with libcosim; ``docs`` writes the per-FMU reference pages.  FMUs are built on first
 use (``build/fmus``).
@@ -151,6 +153,44 @@ def _cmd_paper(args) -> int:
     return 0
 
 
+def _cmd_benchmark(args) -> int:
+    import time
+
+    from .studies import benchmark as bm
+    from .studies.leaderboard import write_report
+
+    seeds = args.seeds or (2 if args.quick else 5)
+    conditions = args.condition or (("nominal", "sensors+mismatch") if args.quick else bm.CONDITIONS)
+    cases = [] if args.log and not args.scenario else bm.cases(args.scenario or None, conditions, seeds,
+                                                                training=args.training)
+    cases += [bm.log_case(path, args.map, args.vehicle) for path in args.log or ()]
+    print(f"benchmark: {len(cases)} cases ({len({c.scenario for c in cases})} scenarios x {len(conditions)} "
+          f"conditions x {seeds} seeds) -> {args.out}", file=sys.stderr)
+    t0 = time.perf_counter()
+    rows = bm.select_rows(args.estimator)
+    results = bm.run_benchmark(cases, rows, args.workers, args.scheduler, progress=sys.stderr.isatty())
+    wall = time.perf_counter() - t0
+    meta = {"seeds": seeds, "conditions": list(conditions), "training": args.training, "wall_s": wall,
+            "cases": len(cases), "quick": args.quick}
+    write_report(results, args.out, title="Sideslip estimator benchmark (" +
+                 ("training set" if args.training else "test set") + ")", meta=meta)
+    print((Path(args.out) / "leaderboard.md").read_text())
+    print(f"{len(cases)} cases in {wall:.0f} s; wrote {args.out}/leaderboard.md, benchmark.json, heatmap.png, "
+          "errors_*.png")
+    return 0
+
+
+def _cmd_replay(args) -> int:
+    from .studies.logs import format_replay, replay_log
+
+    # a bad log raises LogError (a ValueError naming the column): main prints it as "error: ..."
+    summary = replay_log(args.csv, args.estimator, args.map, args.vehicle, _kv(args.param, "--param"), args.step,
+                         args.out, args.fmu_dir)
+    print(format_replay(summary))
+    print("\nwrote " + ", ".join(summary["files"]))
+    return 0
+
+
 def _cmd_docs(args) -> int:
     from .fmi.docs import write_fmu_pages
 
@@ -242,6 +282,32 @@ def main(argv=None) -> int:
     ctl.add_argument("--param", action="append", metavar="controller.NAME=VALUE", help="controller parameter")
     ctl.add_argument("--workers", type=int, default=2)
     ctl.add_argument("--json", action="store_true")
+    bench_e = sub.add_parser("benchmark", help="every estimator on every case of the benchmark (scenario x condition "
+                             "x seed): leaderboard, JSON, heat map, error plots")
+    bench_e.add_argument("--quick", action="store_true", help="2 seeds, conditions nominal and sensors+mismatch")
+    bench_e.add_argument("--seeds", type=int, help="seeds per scenario and condition (default 5, quick 2)")
+    bench_e.add_argument("--condition", action="append", help="only this condition (repeatable)")
+    bench_e.add_argument("--scenario", action="append", help="only this scenario (repeatable)")
+    bench_e.add_argument("--training", action="store_true", help="the training set instead of the test set")
+    bench_e.add_argument("--estimator", action="append", help="only this row, by label or estimator name, e.g. "
+                         "Yoon2014DualKF/hardened or Yoon2014DualKF (repeatable; predict-zero always runs)")
+    bench_e.add_argument("--log", action="append", help="a recorded drive (CSV log with a reference sideslip) as a case; "
+                         "alone, only the logs run (repeatable)")
+    bench_e.add_argument("--map", help="column map of the logs (TOML, see the user guide)")
+    bench_e.add_argument("--vehicle", help="the estimators' vehicle on the logs: a bundled name or a TOML file")
+    bench_e.add_argument("--out", default="out/benchmark", help="output folder (default %(default)s)")
+    bench_e.add_argument("--workers", type=int, default=2, help="parallel processes (default %(default)s)")
+    bench_e.add_argument("--scheduler", help="address of a Dask scheduler instead of local processes")
+    rep = sub.add_parser("replay", help="estimator FMUs on a recorded drive (CSV log): estimates, and metrics and a "
+                         "plot against the log's reference sideslip")
+    rep.add_argument("--csv", required=True, help="the log: a header row, one row per sample")
+    rep.add_argument("--map", help="TOML map of columns to signals with units, scale and offset (see the user guide)")
+    rep.add_argument("--estimator", action="append", required=True, help="estimator FMU, NAME or instance=NAME "
+                     "(repeatable)")
+    rep.add_argument("--vehicle", help="every estimator's vehicle: a bundled name or a TOML file of the logged car")
+    rep.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE", help="FMU parameter override")
+    rep.add_argument("--step", type=float, default=1e-3, help="communication step [s] (default 1e-3)")
+    rep.add_argument("--out", default="out/replay", help="output folder (default %(default)s)")
     docs = sub.add_parser("docs", help="write the per-FMU reference pages of the documentation (docs/fmus)")
     docs.add_argument("--out", default="docs/fmus", help="folder of the pages (default %(default)s)")
     ssp = sub.add_parser("export-ssp", help="write a scenario's closed loop as an SSP 1.0 package (FMUs inside)")
@@ -260,7 +326,8 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     try:
         return {"list": _cmd_list, "run": _cmd_run, "demo": _cmd_demo, "bench": _cmd_bench, "paper": _cmd_paper,
-                "control": _cmd_control, "build": _cmd_build, "export-ssp": _cmd_export_ssp, "docs": _cmd_docs}[args.cmd](args)
+                "control": _cmd_control, "build": _cmd_build, "export-ssp": _cmd_export_ssp, "docs": _cmd_docs,
+                "benchmark": _cmd_benchmark, "replay": _cmd_replay}[args.cmd](args)
     except (KeyError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -19,7 +19,7 @@ from .plant.maneuvers import parse_maneuver
 from .constants import GRAVITY, STANDARD_GRAVITY
 
 __all__ = ["FMVSS_FACTORS", "Scenario", "SCENARIOS", "get_scenario", "scenario_names", "fmvss126_reference_angle",
-           "scenario_params"]
+           "scenario_params", "BENCHMARK_TRAINING", "BENCHMARK_TEST"]
 
 _DEG = math.pi / 180.0
 _KMH = 1.0 / 3.6
@@ -47,6 +47,9 @@ class Scenario:
         Choices made where the paper is silent.
     hints : dict
         Values an estimator of this paper uses (e.g. ``Ts``, ``mu``).
+    estimator_profile : int
+        The ``profile`` the estimators run with: 0 (as published) in the papers' scenarios, so
+        their tables reproduce; 1 (hardened) in the benchmark's.
     """
 
     name: str
@@ -64,6 +67,7 @@ class Scenario:
     hints: dict = field(default_factory=dict)
     driver_extra: dict = field(default_factory=dict)
     vehicle_overrides: str = ""
+    estimator_profile: int = 0
 
     def __post_init__(self):
         parse_maneuver(self.maneuver)
@@ -349,6 +353,97 @@ def _fmvss(surface: str, factor: float | None, direction: float) -> Scenario:
                     hints={"mu": mu})
 
 
+# ------------------------------------------------------------------------------------------------
+# The estimator benchmark (sideslip.studies.benchmark): a training set to tune on and a disjoint
+# test set to report on (other maneuvers, speeds, vehicles and friction), clean sensors; the
+# benchmark's conditions add sensor errors and model mismatch on top.
+# ------------------------------------------------------------------------------------------------
+_BENCH_SENSORS = dict(imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0, mag_rate=50.0, gps_rate=10.0,
+                      ax_sigma=0.05, ay_sigma=0.05, yaw_rate_sigma=0.1 * _DEG, roll_rate_sigma=0.1 * _DEG,
+                      wheel_sigma=0.05, steer_sigma=0.0005, gps_vel_sigma=0.05, mag_sigma=0.01)
+_BENCH_NOTES = ("Clean sensors (noise only): the benchmark's 'sensors' condition adds offsets, drift and GPS "
+                "delay; its 'mismatch' condition puts the plant on Magic Formula tires and perturbs the "
+                "estimator's vehicle.",)
+
+
+def _bench(name: str, description: str, vehicle: str, spec: str, road_mu: str = "1.0", road_bank: str = "0",
+           driver_extra: dict | None = None) -> Scenario:
+    return Scenario(name, description, "sideslip-fmu estimator benchmark", vehicle, spec,
+                    parse_maneuver(spec).duration, road_mu=road_mu, road_bank=road_bank,
+                    sensors=dict(_BENCH_SENSORS), notes=_BENCH_NOTES, driver_extra=driver_extra or {},
+                    estimator_profile=1)
+
+
+BENCHMARK_TRAINING = (
+    _bench("bench_train_dlc_sonata", "Training: ISO 3888-1 double lane changes at 65 km/h, Sonata, mu 1.0",
+           "park2018_sonata", _spec("double_lane_change", v0=18.0, v=18.0, lead_in=60.0, repeat=2, gap=90.0,
+                                    duration=24.0), driver_extra={"preview_time": 0.4}),
+    _bench("bench_train_circle_suv_r40", "Training: 40 m circle to the left at 12 m/s for 70 s, SUV, mu 0.9",
+           "pi2011_suv", _spec("circle", v0=12.0, v=12.0, radius=40.0, lead_in=30.0, duration=70.0), road_mu="0.9"),
+    _bench("bench_train_slalom_asm", "Training: slalom, 18 m cones at 15 m/s, small car, mu 0.8",
+           "kim2016_asm", _spec("slalom", v0=15.0, v=15.0, lead_in=60.0, spacing=18.0, amplitude=1.0, cones=10,
+                                duration=30.0), road_mu="0.8"),
+    _bench("bench_train_sine_suv_snow", "Training: 0.4 Hz sine steer at 12 m/s on snow, SUV, mu 0.3",
+           "pi2011_suv", _spec("sine_steer", v0=12.0, v=12.0, amplitude=0.9, frequency=0.4, cycles=6.0, t_start=3.0,
+                               duration=20.0), road_mu="0.3"),
+    _bench("bench_train_bit_sonata_snow", "Training: brake in a turn from 50 km/h on packed snow, Sonata, mu 0.3",
+           "park2018_sonata", _spec("brake_in_turn", v0=14.0, v=14.0, amplitude=2.0, rate=3.0, t_start=4.0,
+                                    t_release=8.0, decel=1.5, v_end=3.0, duration=12.0), road_mu="0.3"),
+    _bench("bench_train_straight_coms", "Training: 60 s straight, 5 -> 8 m/s, micro EV, mu 0.8",
+           "nguyen2012_coms", _spec("straight", v0=5.0, v=8.0, t_go=20.0, accel=0.5, duration=60.0), road_mu="0.8"),
+    _bench("bench_train_jturn_sonata_wet", "Training: J-turn at 17 m/s on a wet road, Sonata, mu 0.6",
+           "park2018_sonata", _spec("j_turn", v0=17.0, v=17.0, amplitude=2.5, rate=6.0, t_start=4.0, duration=14.0),
+           road_mu="0.6"),
+    _bench("bench_train_circle_coms_r15_snow", "Training: 15 m circle to the right at 4.5 m/s for 70 s on snow, "
+           "micro EV, mu 0.4", "nguyen2012_coms",
+           _spec("circle", v0=4.5, v=4.5, radius=-15.0, lead_in=10.0, duration=70.0), road_mu="0.4"),
+    _bench("bench_train_banked_circle_suv", "Training: 60 m circle to the left at 14 m/s on a 5 deg banked road, "
+           "SUV, mu 1.0", "pi2011_suv", _spec("circle", v0=14.0, v=14.0, radius=60.0, lead_in=40.0, duration=60.0),
+           road_bank=f"{5 * _DEG:.10g}"),
+)
+"""Scenarios the hardened estimators were tuned on."""
+
+BENCHMARK_TEST = (
+    _bench("bench_circle_sonata_r25_right", "25 m circle to the right at 9 m/s for 80 s, Sonata, mu 0.85",
+           "park2018_sonata", _spec("circle", v0=9.0, v=9.0, radius=-25.0, lead_in=20.0, duration=80.0),
+           road_mu="0.85"),
+    _bench("bench_circle_asm_r80_left", "80 m circle to the left at 22 m/s (0.6 g) for 70 s, small car, mu 1.0",
+           "kim2016_asm", _spec("circle", v0=22.0, v=22.0, radius=80.0, lead_in=60.0, duration=70.0)),
+    _bench("bench_circle_suv_r30_snow", "30 m circle to the left at 6.5 m/s for 70 s on snow, SUV, mu 0.35",
+           "pi2011_suv", _spec("circle", v0=6.5, v=6.5, radius=30.0, lead_in=15.0, duration=70.0), road_mu="0.35"),
+    _bench("bench_dlc_asm_80kmh", "ISO 3888-1 double lane change at 80 km/h, small car, mu 1.0",
+           "kim2016_asm", _spec("double_lane_change", v0=22.2, v=22.2, lead_in=120.0, duration=16.0),
+           driver_extra={"preview_time": 0.4}),
+    _bench("bench_slalom_suv_mu05", "Slalom, 24 m cones at 12 m/s, SUV, mu 0.5",
+           "pi2011_suv", _spec("slalom", v0=12.0, v=12.0, lead_in=40.0, spacing=24.0, amplitude=1.2, cones=10,
+                               duration=30.0), road_mu="0.5"),
+    _bench("bench_straight_sonata_long", "120 s straight drive, 10 -> 30 m/s, Sonata, mu 1.0",
+           "park2018_sonata", _spec("straight", v0=10.0, v=30.0, t_go=10.0, accel=0.8, duration=120.0)),
+    _bench("bench_ait_asm_r30", "Acceleration in a 30 m circle, 6 -> 13 m/s, small car, mu 0.9",
+           "kim2016_asm", _spec("circle", v0=6.0, v=13.0, t_go=8.0, accel=0.5, radius=30.0, lead_in=20.0,
+                                duration=40.0), road_mu="0.9"),
+    _bench("bench_bit_suv_mu05", "Brake in a turn from 20 m/s on a wet road, SUV, mu 0.5",
+           "pi2011_suv", _spec("brake_in_turn", v0=20.0, v=20.0, amplitude=0.7, rate=2.0, t_start=4.0,
+                               t_release=9.0, decel=2.0, v_end=3.0, duration=14.0), road_mu="0.5"),
+    _bench("bench_changing_mu_sonata", "Sine steer at 18 m/s while the friction drops from 0.9 to 0.4 and "
+           "returns, Sonata", "park2018_sonata",
+           _spec("sine_steer", v0=18.0, v=18.0, amplitude=0.6, frequency=0.3, cycles=7.0, t_start=3.0,
+                 duration=30.0), road_mu="0:0.9, 10:0.9, 10.5:0.4, 20:0.4, 20.5:0.9"),
+    _bench("bench_banked_lc_asm", "Lane changes at 20 m/s on a 6 deg banked road, small car, mu 1.0",
+           "kim2016_asm", _spec("lane_change", v0=20.0, v=20.0, lead_in=100.0, offset=3.5, length=40.0,
+                                duration=24.0), road_bank=f"{6 * _DEG:.10g}"),
+    _bench("bench_jturn_coms_ice", "J-turn at 8 m/s on ice, micro EV, mu 0.3",
+           "nguyen2012_coms", _spec("j_turn", v0=8.0, v=8.0, amplitude=4.0, rate=8.0, t_start=4.0, duration=14.0),
+           road_mu="0.3"),
+    _bench("bench_sine_coms_dry", "0.5 Hz sine steer at 6 m/s, micro EV, mu 0.8",
+           "nguyen2012_coms", _spec("sine_steer", v0=6.0, v=6.0, amplitude=2.0, frequency=0.5, cycles=10.0,
+                                    t_start=3.0, duration=25.0), road_mu="0.8"),
+)
+"""Scenarios the benchmark reports on: no maneuver, speed, vehicle and friction combination of the training set."""
+
+for _sc in BENCHMARK_TRAINING + BENCHMARK_TEST:
+    _add(_sc)
+
 FMVSS_FACTORS = tuple(1.5 + 0.5 * i for i in range(11))
 """FMVSS 126 sine-with-dwell amplitudes in multiples of A (S7.7: 1.5A to 6.5A in 0.5A steps)."""
 _LAZY = {}
@@ -391,5 +486,8 @@ def scenario_params(config_class, scenario: Scenario) -> dict:
     if "vehicle_overrides" in names and scenario.vehicle_overrides:
         params["vehicle_overrides"] = scenario.vehicle_overrides
     params.update({k: v for k, v in scenario.sensors.items() if k in _CALIBRATION and k in names})
+    for key in ("profile", "estimator_profile"):          # an estimator's, a controller's embedded one
+        if key in names:
+            params[key] = scenario.estimator_profile
     params.update({k: v for k, v in scenario.hints.items() if k in names})
     return params

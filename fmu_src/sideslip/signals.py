@@ -164,6 +164,7 @@ _ENTRIES = [
     _bool("delta_fault", "True while the steering-sensor residual test detects a fault"),
     _real("roll_hat", "Angle", "Estimated roll angle of the body (positive: right side down)", -1.0, 1.0),
     _real("bias_ax_hat", "Acceleration", "Estimated bias of ax_m", -20.0, 20.0),
+    _real("bias_yaw_rate_hat", "AngularVelocity", "Estimated bias (offset) of yaw_rate_m", -1.0, 1.0),
     _real("bias_ay_hat", "Acceleration", "Estimated bias of ay_m", -20.0, 20.0),
     _real("gps_delay_hat", "Time", "Estimated (or configured) delay of the GPS velocity", 0.0, 5.0),
     _bool("mag_disturbed", "True while the magnetometer is judged disturbed (field norm off unity)"),

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from .constants import STANDARD_GRAVITY
 
-__all__ = ["Unit", "UNITS", "QUANTITIES", "unit_of_quantity"]
+__all__ = ["Unit", "UNITS", "QUANTITIES", "LOG_UNITS", "unit_of_quantity", "si_factor"]
 
 
 @dataclass(frozen=True)
@@ -118,3 +118,32 @@ QUANTITIES: dict[str, str] = {
 def unit_of_quantity(quantity: str) -> str:
     """Unit string of a quantity (raises ``KeyError`` for an unknown quantity)."""
     return QUANTITIES[quantity]
+
+
+LOG_UNITS: dict[str, tuple[str, float]] = {
+    "ms": ("s", 1e-3),
+    "rpm": ("rad/s", 2.0 * math.pi / 60.0),
+    "mph": ("m/s", 0.44704),
+    "mrad": ("rad", 1e-3),
+}
+"""Units a recorded log may use besides the SI units and their display units: name -> (SI unit, factor to SI)."""
+
+
+def si_factor(unit: str, si_unit: str) -> float:
+    """Factor that turns a value in ``unit`` into ``si_unit``: 1 for the SI unit itself, the inverse
+    display factor for a display unit (``deg``, ``deg/s``, ``km/h``, ``g``), or a :data:`LOG_UNITS` factor.
+
+    Raises
+    ------
+    KeyError
+        When ``unit`` is not a unit of the quantity (the message lists the accepted ones).
+    """
+    if unit == si_unit:
+        return 1.0
+    for name, factor in UNITS[si_unit].display:
+        if unit == name:
+            return 1.0 / factor
+    if unit in LOG_UNITS and LOG_UNITS[unit][0] == si_unit:
+        return LOG_UNITS[unit][1]
+    accepted = [si_unit] + [n for n, _ in UNITS[si_unit].display] + [n for n, (u, _) in LOG_UNITS.items() if u == si_unit]
+    raise KeyError(f"unit {unit!r} is not one of {', '.join(accepted)}")

@@ -34,6 +34,8 @@ class StabilityControllerConfig(LqrDycConfig):
     estimator: str = param("Park2018Observer", "Dimensionless", "Embedded sideslip estimator (estimator FMU name)",
                            choices=tuple(sorted(ESTIMATORS)))
     Ts: float = param(0.0, "Time", "Sample period of the embedded estimator (0: its own default)", ge=0, le=1.0)
+    estimator_profile: int = param(1, "Dimensionless", "Profile of the embedded estimator: 0 as published, "
+                                   "1 hardened (its parameter profile)", choices=(0, 1))
 
 
 class StabilityController(Model):
@@ -51,6 +53,8 @@ class StabilityController(Model):
         values = {k: getattr(cfg, k) for k in ("vehicle", "vehicle_overrides", "mu") if k in names}
         if cfg.Ts > 0:
             values["Ts"] = cfg.Ts
+        if "profile" in names:
+            values["profile"] = cfg.estimator_profile
         self.estimator = est_cls(build(est_cls.config_class, values), vehicle=self.vehicle)
         self.controller = LqrDycController(LqrDycConfig(**{f.name: getattr(cfg, f.name)
                                                            for f, _ in declared_fields(LqrDycConfig)}),

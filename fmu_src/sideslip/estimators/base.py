@@ -5,7 +5,10 @@ its filter every ``Ts`` (samples at ``k Ts``, several per step if ``Ts`` is shor
 step).  Between samples it keeps the latest inputs; event inputs (``gps_fresh``) are latched
 so that a GPS fix arriving between two samples is not missed.  A sample whose inputs are not
 finite is skipped (the estimate is held and ``valid`` goes false), so no NaN reaches the
-outputs even when the library class is used without the FMU toolkit.
+outputs even when the library class is used without the FMU toolkit.  A filter that fails
+numerically (a singular innovation covariance, a non-finite estimate: a method driven far outside
+what it was designed for) is restarted from its initial state with ``valid`` false, and
+:attr:`Estimator.restarts` counts it: the host sees a held estimate, never an exception.
 
 The common outputs of the contract come first, in this order: ``beta_hat``,
 ``beta_hat_std``, ``vx_hat``, ``vy_hat``, ``yaw_rate_hat``, ``valid``; each estimator appends
@@ -17,12 +20,17 @@ import math
 from dataclasses import dataclass
 from enum import IntEnum
 
+import numpy as np
+
 from ..model import SampledModel
 from ..params import check, param
 from ..signals import ESTIMATOR_COMMON_OUTPUTS, WHEEL_SPEEDS_M
 from ..vehicles import VehicleConfig, VehicleParams
 
 __all__ = ["EstimatorConfig", "Estimator", "undriven_wheels", "input_enum", "beta_std", "lowpass"]
+
+RESTART_STD = 0.1
+"""[rad] ``beta_hat_std`` reported after a restart: as uncertain as a car's sideslip range."""
 
 EVENT_INPUTS = ("gps_fresh",)
 """Inputs that are true for one communication step and must be latched until the next sample."""
@@ -105,6 +113,7 @@ class Estimator(SampledModel):
         self.beta = self.beta_std = self.vx = self.vy = self.yaw_rate = 0.0
         self.valid = False
         self._init_filter()
+        self.restarts = 0
         self._out = self._pack()
 
     def _init_filter(self) -> None:
@@ -131,6 +140,21 @@ class Estimator(SampledModel):
         return (self.beta, self.beta_std, self.vx, self.vy, self.yaw_rate, 1.0 if self.valid else 0.0,
                 *self._extras())
 
+    def _guarded_sample(self, u: list) -> None:
+        """:meth:`_sample`, restarting the filter if it fails numerically (module docstring)."""
+        held = (self.vx, self.yaw_rate)
+        try:
+            self._sample(u)
+            ok = math.isfinite(self.beta + self.beta_std + self.vx + self.vy + self.yaw_rate + sum(self._extras()))
+        except (np.linalg.LinAlgError, ValueError, OverflowError, ZeroDivisionError):
+            ok = False
+        if not ok:
+            self._init_filter()                # sideslip back to its prior, speed and yaw rate held
+            self.beta, self.vy, self.beta_std = 0.0, 0.0, RESTART_STD
+            self.vx, self.yaw_rate = held
+            self.valid = False
+            self.restarts += 1
+
     def step(self, h: float, *u) -> None:
         """Advance by ``h`` [s] with the latest inputs ``u`` (``input_names`` order)."""
         t = self._tick(h)
@@ -142,7 +166,7 @@ class Estimator(SampledModel):
         ran = False
         for _ in range(self._samples_due(t)):
             if math.isfinite(sum(latched)):
-                self._sample(latched)
+                self._guarded_sample(latched)
             else:
                 self.valid = False             # hold the estimate on bad inputs
             ran = True

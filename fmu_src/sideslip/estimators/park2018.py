@@ -33,6 +33,30 @@ eqs 8-13; eq 14 and eq 32 swap ``l_f`` and ``l_r`` in the static axle loads; eq 
 ``I + T_s (...)`` of a discrete Jacobian.  The paper leaves the kinematic and integrated EKFs'
 covariances, the compensator gains and thresholds and the weighting constants unspecified:
 they are parameters with the defaults below, chosen on the scenarios and stated in the docs (modelling choices).
+
+Hardened profile (``profile = 1``, the default; ``profile = 0`` is the method above), additions for
+sensors and drives other than the paper's, each with the failure it answers:
+
+* **A bounded, slower offset compensator**: the offsets are held within ``offset_ax_max``,
+  ``offset_ay_max``, ``offset_r_max`` (what an automotive sensor's offset can be) and learnt with
+  the gain ``k_hardened`` after ``straight_hold`` seconds of straight driving, judged by the yaw rate
+  alone (a steering-sensor offset can keep eq 2's steering test from ever holding, or hold it in a
+  turn, and the noise of a differentiated steering angle breaks any hold).  Spin-out is judged on
+  the low-passed ratio of the radius-compensated wheel speed to the GPS speed with a 2 % margin:
+  ``acos(v_w / v_s) > beta_th`` is a 0.5 % speed ratio that GPS noise or a 1 % radius error trips.
+  On a real drive the paper's gains swung the offsets over +-1 m/s2.
+* **GPS delay**: a fix is compared with the kinematic EKF's velocity of ``gps_delay`` earlier (a
+  :class:`~sideslip.estimators.delay.DelayLine` of the sample period), the delay identified while turning
+  (:class:`~sideslip.estimators.delay.CourseDelay`): 0.1 s of latency at 4 m/s2 of lateral
+  acceleration is 0.4 m/s of lateral velocity.
+* **Truthful uncertainty and validity**: the integrated observer's covariance rests on fixed
+  pseudo-measurement noise; the hardened std is the weighting of the sub-filters' own,
+  ``(1 - K)^2 sigma_bic^2 + K^2 sigma_kin^2``, the bicycle sub-filter's covering its stiffness states
+  (its sideslip variance raised beyond the tires' linear range,
+  :class:`~sideslip.estimators.hardening.ModelTrust`) and the kinematic one's inflated by the
+  consistency of the GPS innovations; ``valid`` is false while the GPS is out longer than
+  ``gps_coast``, while those innovations are inconsistent and while the std exceeds
+  ``valid_std_max``.
 """
 from __future__ import annotations
 
@@ -46,7 +70,9 @@ from ..bicycle import axle_forces
 from ..constants import GRAVITY
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
-from .base import Estimator, EstimatorConfig, beta_std, input_enum, lowpass
+from .base import beta_std, input_enum, lowpass
+from .delay import CourseDelay, DelayLine
+from .hardening import InnovationMonitor, LinearTireConfig, ModelTrust, ProfiledEstimator
 from .kalman import KalmanFilter
 from .roll import RollCompensator
 
@@ -194,7 +220,7 @@ def weighting_factor(dcf, dcr, nf, nr, mu, tau_f, eps_f, tau_r, eps_r) -> float:
 
 # ------------------------------------------------------------------------------ configuration
 @dataclass(frozen=True)
-class Park2018Config(EstimatorConfig):
+class Park2018Config(LinearTireConfig):
     """Parameters of :class:`Park2018Observer` (paper values where it gives them)."""
 
     vehicle: str = param("park2018_sonata", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
@@ -249,10 +275,25 @@ class Park2018Config(EstimatorConfig):
     heading_std0: float = param(0.02, "Angle", "Initial heading uncertainty besides the course noise", gt=0, le=1)
     roll_compensation: bool = param(True, "Dimensionless", "Remove g sin(roll) from a_y with the vehicle's roll model "
                                     "(an addition to the paper, see module docstring)")
+    # hardened profile (module docstring)
+    k_hardened: float = param(0.3, "InverseTime", "Hardened: gain of the offset compensator", gt=0, le=50)
+    straight_hold: float = param(1.0, "Time", "Hardened: straight driving needed before the offsets adapt", ge=0,
+                                 le=60)
+    r_straight: float = param(0.02, "AngularVelocity", "Hardened: yaw rate below which the car drives straight",
+                              gt=0, le=1)
+    offset_ax_max: float = param(0.5, "Acceleration", "Hardened: largest a_x offset", gt=0, le=10)
+    offset_ay_max: float = param(0.6, "Acceleration", "Hardened: largest a_y offset (a bank's gravity included)", gt=0,
+                                 le=10)
+    offset_r_max: float = param(0.035, "AngularVelocity", "Hardened: largest yaw-rate offset", gt=0, le=1)
+    gps_delay: float = param(0.0, "Time", "Hardened: GPS delay used until one is identified", ge=0, le=0.5)
+    identify_delay: bool = param(True, "Dimensionless", "Hardened: identify the GPS delay while turning")
+    gps_coast: float = param(10.0, "Time", "Hardened: GPS outage after which the estimate is not valid", gt=0, le=600)
+    nis_limit: float = param(25.0, "Dimensionless", "Hardened: GPS innovation consistency (NIS / dof over 10 fixes) "
+                             "above which the estimate is not valid", gt=1, le=1e6)
 
 
 # ------------------------------------------------------------------------------ the observer
-class Park2018Observer(Estimator):
+class Park2018Observer(ProfiledEstimator):
     """Park 2018 integrated observer (see module docstring)."""
 
     config_class = Park2018Config
@@ -293,6 +334,15 @@ class Park2018Observer(Estimator):
         self.Cf = self.Cr = 0.0
         self.yaw = 0.0
         self.beta_bic = self.beta_kin = self.beta_ol = 0.0
+        self.delay = cfg.gps_delay
+        if self.hardened:
+            self._straight_for = 0.0
+            self._speed_ratio = 1.0
+            self._kin_hist = DelayLine(int(round(0.5 / self.Ts)) + 2, 2)       # predicted (v_e, v_n)
+            self._course_delay = CourseDelay(self.Ts, 0.5)
+            self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
+            self._trust = ModelTrust(v, self.Ts, cfg)
+            self._outage = 0.0
 
     def _extras(self) -> tuple:
         return (self.yaw, self.Cf, self.Cr, self.K, self.b_x, self.b_y, self.b_r, self.b_R,
@@ -325,16 +375,35 @@ class Park2018Observer(Estimator):
 
         # ---- sensor offset compensator (eqs 2-7)
         eps = abs(delta) <= cfg.delta_th and abs(self._delta_rate) <= cfg.delta_rate_th      # eq 2
-        spin = gps_ok and vs > cfg.v_min and abs(math.acos(min(max(vw_m / vs, -1.0), 1.0))) > cfg.beta_th
+        if self.hardened:          # straight by the yaw rate, held for a while; slower gains, bounded offsets
+            # spin-out from the filtered ratio of the radius-compensated wheel speed to the GPS speed:
+            # acos(v_w / v_s) > 0.1 rad is a 0.5 % ratio, tripped by GPS speed noise or a radius error
+            if gps_ok and vs > cfg.v_min:
+                ratio = vw_m * (1.0 + self.b_R / v.R_w) / vs
+                self._speed_ratio = lowpass(self._speed_ratio, ratio, ts, 1.0)
+            spin = abs(1.0 - self._speed_ratio) > 1.0 - math.cos(cfg.beta_th) + 0.02
+            straight = abs(r_m + self.b_r) < cfg.r_straight      # not the steering rate: its noise breaks the hold
+            self._straight_for = self._straight_for + ts if straight and not spin else 0.0
+            eps = self._straight_for >= cfg.straight_hold
+            gains = (cfg.k_hardened,) * 4
+        else:
+            spin = gps_ok and vs > cfg.v_min and abs(math.acos(min(max(vw_m / vs, -1.0), 1.0))) > cfg.beta_th
+            gains = (cfg.k_r, cfg.k_y, cfg.k_x, cfg.k_w)
         if eps and not spin:
+            k_r, k_y, k_x, k_w = gains
             self._settled += ts
-            self.b_r += ts * (-cfg.k_r * (self.b_r + r_m))                                     # eq 3
-            self.b_y += ts * (-cfg.k_y * (self.b_y + ay_m))                                    # eq 4
+            self.b_r += ts * (-k_r * (self.b_r + r_m))                                         # eq 3
+            self.b_y += ts * (-k_y * (self.b_y + ay_m))                                        # eq 4
             if gps_ok:
                 # eq 5, with a_x,m through the same low-pass as d(v_s)/dt so that their lags cancel
-                self.b_x += ts * (-cfg.k_x * (self.b_x - (self._vs_rate - self._ax_lp)))
+                self.b_x += ts * (-k_x * (self.b_x - (self._vs_rate - self._ax_lp)))
                 if abs(self._vs_rate) <= cfg.vs_rate_th and vw_m > cfg.v_min:                  # eps_w of eq 7
-                    self.b_R += ts * (-cfg.k_w * (self.b_R - (vs / vw_m - 1.0) * v.R_w))       # eq 7
+                    self.b_R += ts * (-k_w * (self.b_R - (vs / vw_m - 1.0) * v.R_w))           # eq 7
+            if self.hardened:
+                self.b_r = min(max(self.b_r, -cfg.offset_r_max), cfg.offset_r_max)
+                self.b_y = min(max(self.b_y, -cfg.offset_ay_max), cfg.offset_ay_max)
+                self.b_x = min(max(self.b_x, -cfg.offset_ax_max), cfg.offset_ax_max)
+                self.b_R = min(max(self.b_R, -0.05 * v.R_w), 0.05 * v.R_w)
         r = r_m + self.b_r
         ay = ay_m + self.b_y
         if cfg.roll_compensation:
@@ -369,6 +438,8 @@ class Park2018Observer(Estimator):
         bic.predict(bicycle_f(xb, ub, p, ts), bicycle_F(xb, ub, p, ts), self._Q_bic)
         xb = bic.x.tolist()
         bic.update(np.array([fyf, fyr, r]) - bicycle_h(xb, ub, p), bicycle_H(xb, ub, p), self._R_bic)
+        if self.hardened:
+            self._trust.apply(bic.P, Bic.BETA, vw, r, delta, ay)     # its stiffness states carry the rest
         beta_bic, _, dcf, dcr = bic.x.tolist()
         if eps and not spin and abs(ay) < 0.5:  # steady straight driving: dC_n reset (Section 6.2.2)
             dcf = dcr = 0.0
@@ -397,10 +468,24 @@ class Park2018Observer(Estimator):
             xk = kin.x.tolist()
             kin.predict(kinematic_f(xk, uk, ts), kinematic_F(xk, uk, ts), self._Q_kin)
             kin.update_scalar(vw - kin.x[Kin.VX], self._h_vw, cfg.r_kin_vw)
+            if self.hardened:
+                self._kin_hist.push(kinematic_h(kin.x.tolist())[1:])
+                self._course_delay.push(r)
             if fresh:
                 z = np.array([u[I.GPS_VE], u[I.GPS_VN]])
                 xk = kin.x.tolist()
-                kin.update(z - kinematic_h(xk)[1:], kinematic_H(xk)[1:], self._R_gps)
+                if self.hardened:            # the fix against the velocity of `delay` ago (module docstring)
+                    if cfg.identify_delay and vs > cfg.heading_speed:
+                        self._course_delay.add_fix(math.atan2(z[1], z[0]), r)
+                        d = self._course_delay.estimate()
+                        if d is not None:
+                            self.delay = d
+                    before = kinematic_h(xk)[1:]
+                    self._gps_nis.add(kin.update(z - self._kin_hist.delayed(int(round(self.delay / ts))),
+                                                 kinematic_H(xk)[1:], self._R_gps), 2)
+                    self._kin_hist.correct(kinematic_h(kin.x.tolist())[1:] - before)
+                else:
+                    kin.update(z - kinematic_h(xk)[1:], kinematic_H(xk)[1:], self._R_gps)
             kin.x[Kin.PSI] = math.remainder(kin.x[Kin.PSI], 2.0 * math.pi)
             vx_kin, vy_kin, self.yaw = kin.x.tolist()
             self.beta_kin = math.atan2(vy_kin, vx_kin)
@@ -432,3 +517,14 @@ class Park2018Observer(Estimator):
         P = intg.P.tolist()
         self.beta_std = beta_std(vx_i, vy_i, P[Intg.VX][Intg.VX], P[Intg.VY][Intg.VY], P[Intg.VX][Intg.VY])
         self.valid = True
+        if self.hardened:                    # the sub-filters' own uncertainty, weighted like their estimates
+            self._outage = 0.0 if gps_ok else self._outage + ts
+            var_bic = bic.P.item(Bic.BETA, Bic.BETA)
+            if kin is not None:
+                Pk = kin.P
+                var_kin = beta_std(vx_kin, vy_kin, Pk.item(0, 0), Pk.item(1, 1), Pk.item(0, 1)) ** 2 * \
+                    self._gps_nis.inflation() ** 2
+            else:
+                var_kin = var_bic
+            self.beta_std = math.sqrt((1 - k) ** 2 * var_bic + k * k * var_kin)
+            self.valid = kin is not None and self._outage <= cfg.gps_coast and self._gps_nis.consistent

@@ -43,6 +43,26 @@ Re-derived or chosen where the paper is garbled or silent (each also marked at i
   accelerometer reads ``g sin(roll)`` (0.7 m/s2 at 0.45 g) on top of the CG acceleration that
   eqs 23-24 and the ``a_y`` measurement assume; it is removed with the vehicle's roll model
   (:mod:`sideslip.estimators.roll`).
+
+Hardened profile (``profile = 1``, the default; ``profile = 0`` is the method above), additions for
+vehicles and sensors other than the paper's, each with the failure it answers:
+
+* **The nonlinear factor capped** at ``alpha_max``: at 1 the weighted forces are the sensors' alone
+  and nothing ties the sideslip to the tire model; it then integrates ``a_y / v_x - r`` and drifts
+  with every offset.  With a model stiffness 30 % off, the yaw-rate deviation of eq 31 reads a
+  steady circle as the limit, the factor sits at 1 and the estimate ran away (-97 deg against
+  -0.5 deg in a steady turn).
+* **The stiffness identifier bounded and slowed**: the secant stiffness of eqs 35-36 is formed with
+  the estimate's own slip angle, so a drifting estimate lowers it, which lets the estimate drift
+  further; it is kept within ``[c_min_hardened, 1.3]`` of the nominal and low-pass filtered
+  (``c_tau``).
+* **The sideslip bounded** to ``beta_max`` (a car's sideslip at the limit), where ``valid`` goes false.
+* **Noise from the sensors**: ``Q`` and ``R`` of the paper (``1e-13`` rad2 on the sideslip) make the
+  filter certain of a model that is 30 % off (the reported std was 400-18,000 times smaller than the
+  error); the hardened profile takes ``q_beta_hardened`` and ``r_force_hardened``, inflates the
+  reported std by the consistency of the innovations and adds the linear tires' model error; beyond
+  their range the sideslip's variance is raised (:class:`~sideslip.estimators.hardening.ModelTrust`);
+  ``valid`` is false while the std exceeds ``valid_std_max``.
 """
 from __future__ import annotations
 
@@ -55,8 +75,9 @@ import numpy as np
 from ..bicycle import BicycleModel, axle_forces
 from ..params import ParameterError, check, param
 from ..signals import WHEEL_SPEEDS_M
-from .base import Estimator, EstimatorConfig, input_enum, lowpass
+from .base import input_enum, lowpass
 from .fuzzy import Mamdani, Trapezoid
+from .hardening import InnovationMonitor, LinearTireConfig, ModelTrust, ProfiledEstimator
 from .kalman import KalmanFilter
 from .roll import RollCompensator
 
@@ -139,7 +160,7 @@ def nonlinear_factor_system(dr_ze, dr_small, dr_big, ay_ze, ay_small, ay_big) ->
 
 # ------------------------------------------------------------------------------ configuration
 @dataclass(frozen=True)
-class Pi2011Config(EstimatorConfig):
+class Pi2011Config(LinearTireConfig):
     """Parameters of :class:`Pi2011FuzzyEKF` (paper values where it gives them)."""
 
     mu: float = param(1.0, "FrictionCoefficient", "Friction for which the nominal (high-friction) cornering "
@@ -163,6 +184,17 @@ class Pi2011Config(EstimatorConfig):
     ay_ze: float = param(0.5, "Acceleration", "Lateral acceleration: ZE is 1 up to here", ge=0, le=50)
     ay_small: float = param(1.5, "Acceleration", "Lateral acceleration: PS/NS peak, ZE reaches 0", gt=0, le=50)
     ay_big: float = param(3.0, "Acceleration", "Lateral acceleration: PB/NB reach 1", gt=0, le=50)
+    # hardened profile (module docstring)
+    alpha_max: float = param(0.7, "Dimensionless", "Hardened: largest nonlinear factor", gt=0, le=1)
+    c_min_hardened: float = param(0.5, "Dimensionless", "Hardened: lower bound of the identified stiffness as a "
+                                  "fraction of the nominal", gt=0, le=1)
+    c_tau: float = param(1.0, "Time", "Hardened: time constant of the identified stiffness", gt=0, le=60)
+    beta_max: float = param(0.35, "Angle", "Hardened: largest sideslip the estimate may reach", gt=0, le=1.5)
+    q_beta_hardened: float = param(2e-7, "AngleVariance", "Hardened: process noise of beta per sample", gt=0, le=1)
+    r_force_hardened: float = param(4e5, "ForceVariance", "Hardened: variance of the weighted axle forces", gt=0,
+                                    le=1e10)
+    r_ay_hardened: float = param(0.05, "AccelerationVariance", "Hardened: variance of the lateral acceleration",
+                                 gt=0, le=100)
 
     def __post_init__(self):
         check(self)
@@ -175,7 +207,7 @@ class Pi2011Config(EstimatorConfig):
 
 
 # ------------------------------------------------------------------------------ the observer
-class Pi2011FuzzyEKF(Estimator):
+class Pi2011FuzzyEKF(ProfiledEstimator):
     """Pi 2011 fuzzy-weighted EKF (see module docstring)."""
 
     config_class = Pi2011Config
@@ -193,14 +225,21 @@ class Pi2011FuzzyEKF(Estimator):
         self.fuzzy = nonlinear_factor_system(cfg.dr_ze, cfg.dr_small, cfg.dr_big, cfg.ay_ze, cfg.ay_small,
                                              cfg.ay_big)
         self.kf = KalmanFilter([0.0, 0.0, 0.0], np.diag([1e-6, 1e4, 1e4]))
-        self._Q = np.diag([cfg.q_beta, cfg.q_force, cfg.q_force])
-        self._R = np.diag([cfg.r_force, cfg.r_force, cfg.r_ay])
+        if self.hardened:
+            self._Q = np.diag([cfg.q_beta_hardened, cfg.q_force, cfg.q_force])
+            self._R = np.diag([cfg.r_force_hardened, cfg.r_force_hardened, cfg.r_ay_hardened])
+            self._nis = InnovationMonitor(100)
+            self._trust = ModelTrust(v, self.Ts, cfg)
+        else:
+            self._Q = np.diag([cfg.q_beta, cfg.q_force, cfg.q_force])
+            self._R = np.diag([cfg.r_force, cfg.r_force, cfg.r_ay])
         self._r_prev = None
         self._r_dot = 0.0
         self._r_lp = 0.0
         self._roll = RollCompensator(v, self.Ts) if cfg.roll_compensation else None
         self.alpha = 0.0
         self.Cf, self.Cr = self._C
+        self._cs = self._C                     # hardened: the low-passed secant stiffness
         self.Fyf = self.Fyr = 0.0
 
     def _extras(self) -> tuple:
@@ -230,13 +269,23 @@ class Pi2011FuzzyEKF(Estimator):
         r_lp = self._r_lp
         dr = g * (r_ref - r_lp) * l / vx * math.copysign(1.0, r_lp)          # eq 31
         a = min(max(self.fuzzy.evaluate(dr, ay), 0.0), 1.0)
+        if self.hardened:            # capped, unless the tires are measured beyond their linear range
+            self._trust.linearity.update(vx, r, delta, ay, mz)
+            a = max(min(a, cfg.alpha_max), self._trust.kinematic_weight(cfg.kinematic_gap))
         # 3. slip angles of the prior estimate (eqs 27-28), stiffness identifier (eqs 33-36, re-derived)
         beta = float(self.kf.x[St.BETA])
         alpha_f = beta + lf * r / vx - delta
         alpha_r = beta - lr * r / vx
         cf0, cr0 = self._C
-        cf_s = min(max(-fyf_s / alpha_f, cfg.c_min * cf0), cf0) if abs(alpha_f) > cfg.alpha_min else cf0
-        cr_s = min(max(-fyr_s / alpha_r, cfg.c_min * cr0), cr0) if abs(alpha_r) > cfg.alpha_min else cr0
+        if self.hardened:            # bounded, and slowed so that a drifting estimate cannot take it along
+            lo, hi, k = cfg.c_min_hardened, 1.3, 1.0 - math.exp(-ts / cfg.c_tau)
+            cf_s = min(max(-fyf_s / alpha_f, lo * cf0), hi * cf0) if abs(alpha_f) > cfg.alpha_min else cf0
+            cr_s = min(max(-fyr_s / alpha_r, lo * cr0), hi * cr0) if abs(alpha_r) > cfg.alpha_min else cr0
+            self._cs = (self._cs[0] + k * (cf_s - self._cs[0]), self._cs[1] + k * (cr_s - self._cs[1]))
+            cf_s, cr_s = self._cs
+        else:
+            cf_s = min(max(-fyf_s / alpha_f, cfg.c_min * cf0), cf0) if abs(alpha_f) > cfg.alpha_min else cf0
+            cr_s = min(max(-fyr_s / alpha_r, cfg.c_min * cr0), cr0) if abs(alpha_r) > cfg.alpha_min else cr0
         cf = (1.0 - a) * cf0 + a * cf_s
         cr = (1.0 - a) * cr0 + a * cr_s
         # adaptive linear tire model (eqs 25-26, F = -C alpha) and the weighted forces (eqs 29-30)
@@ -244,13 +293,24 @@ class Pi2011FuzzyEKF(Estimator):
         fyr = a * fyr_s + (1.0 - a) * (-cr * alpha_r)
         # 4. EKF (eqs 37-47)
         kf, p = self.kf, self._p
-        uk = (delta, r, vx, cf, cr, math.exp(-ts * vx / cfg.relaxation_length))   # tau = RL_y / v_x
+        e = math.exp(-ts * vx / cfg.relaxation_length)                            # tau = RL_y / v_x
+        if self.hardened:            # beyond the linear range the forces follow the sensors, not the tire model
+            e += self._trust.kinematic_weight(cfg.kinematic_gap) * (1.0 - e)
+        uk = (delta, r, vx, cf, cr, e)
         xk = kf.x.tolist()
         kf.predict(pi_f(xk, uk, p, ts), pi_F(xk, uk, p, ts), self._Q)
         H = pi_H(delta, m)
-        kf.update(np.array([fyf, fyr, ay]) - H.dot(kf.x), H, self._R)
+        nis = kf.update(np.array([fyf, fyr, ay]) - H.dot(kf.x), H, self._R)
         self.beta, self.Fyf, self.Fyr = kf.x.tolist()
         self.alpha, self.Cf, self.Cr = a, cf, cr
         self.beta_std = kf.std(St.BETA)
-        self.vy = vx * math.tan(self.beta)
         self.valid = True
+        if self.hardened:
+            self._nis.add(nis, 3)
+            model_std = self._trust.model_std(ay)
+            self.beta_std = math.hypot(kf.std(St.BETA) * self._nis.inflation(), model_std)
+            if abs(self.beta) > cfg.beta_max:          # beyond a car's sideslip: held at the bound, not valid
+                self.beta = kf.x[St.BETA] = math.copysign(cfg.beta_max, self.beta)
+                self.valid = False
+            self.valid = self.valid and self._nis.consistent
+        self.vy = vx * math.tan(self.beta)

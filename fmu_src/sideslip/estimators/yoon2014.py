@@ -42,6 +42,28 @@ calibrated offsets), and eq 26's rotation reads ``U = cos(psi) v_e + sin(psi) v_
 ``V = cos(phi) (-sin(psi) v_e + cos(psi) v_n)`` (no vertical GPS velocity).  Standstill: the
 gyro biases are averaged while the undriven wheels are still, after ``standstill_settle``
 seconds (a car put on a banked road first settles in roll, which the roll gyro sees).
+
+Hardened profile (``profile = 1``, the default; ``profile = 0`` is the method above), additions for
+sensors, sites and drives other than the paper's, each with the failure it answers:
+
+* **Gyro offsets as states** of the heading filter (``[psi, phi, b_r, b_p]``, slow random walks),
+  corrected at a standstill (zero rate) and by the heading references below: the paper learns them
+  at a standstill only, and a car that drives off at once keeps its 0.5 deg/s offset, which tilts
+  the heading and the sideslip with it in every turn.
+* **The site's inclination as a state** of the heading filter (from ``mag_inclination``, uncertainty
+  ``inclination_std0``): with a default 8 deg off the site's, the paper's 3-axis model reads the
+  difference as roll and ``g sin(roll)`` as lateral acceleration (3.4 deg of sideslip on a real
+  drive).  The roll model below makes roll and inclination separable.
+* **The GPS course while driving straight**: with the yaw rate below ``r_straight`` the course minus
+  the bicycle model's sideslip is the heading (Section IV's straight-driving observability, applied
+  to the heading filter too), delay-compensated through a heading history.
+* **Roll from the vehicle's roll model**: ``phi = m_s h_s a_y / (K_phi - m_s g h_s)`` as a
+  pseudo-measurement of the roll (``sigma_roll``), instead of the magnetometer's vertical field.
+* **GPS delay while turning** (:class:`~sideslip.estimators.delay.CourseDelay`) besides the
+  paper's straight accelerations, which a drive at constant speed never offers.
+* **Truthful uncertainty and validity**: ``beta_hat_std`` inflated by the consistency of the GPS
+  velocity innovations; ``valid`` false while the GPS is out longer than ``gps_coast`` and while
+  those innovations are inconsistent.
 """
 from __future__ import annotations
 
@@ -57,8 +79,10 @@ from ..geomagnetic import earth_field
 from ..constants import GRAVITY
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
-from .base import Estimator, EstimatorConfig, beta_std, input_enum
+from .base import beta_std, input_enum
+from .hardening import GpsLatencyConfig, InnovationMonitor, ProfiledConfig, ProfiledEstimator
 from .baselines import BicycleObserverConfig, LinearBicycleObserver
+from .delay import DelayIdentifier, GpsLatency
 from .kalman import KalmanFilter
 
 __all__ = ["Yoon2014Config", "Yoon2014DualKF", "Hd", "Sd", "magnetometer_h", "magnetometer_H",
@@ -67,8 +91,8 @@ __all__ = ["Yoon2014Config", "Yoon2014DualKF", "Hd", "Sd", "magnetometer_h", "ma
 
 
 class Hd(IntEnum):
-    """State of the heading EKF (eq 23)."""
-    PSI, PHI = range(2)
+    """State of the heading EKF (eq 23) and, in the hardened profile, the gyro offsets and the inclination."""
+    PSI, PHI, BR, BP, INCL = range(5)
 
 
 class Sd(IntEnum):
@@ -103,61 +127,9 @@ def sideslip_F(yaw_rate: float, ts: float) -> np.ndarray:
                      [0.0, 0.0, 0.0, 1.0]])
 
 
-class DelayIdentifier:
-    """GPS delay from straight accelerations: ``v_gps(t) = k v_wheel(t - D)``, least squares in ``k`` per
-    candidate ``D`` on a grid of the sample period, accumulated over all qualifying fixes.
-
-    Parameters
-    ----------
-    ts : float
-        Sample period of the wheel-speed history [s].
-    max_delay : float
-        Largest candidate delay [s].
-    """
-
-    def __init__(self, ts: float, max_delay: float):
-        self.ts = ts
-        self.n = int(round(max_delay / ts)) + 1
-        self.history: deque = deque(maxlen=self.n + 1)       # wheel speed per sample, newest last
-        self.sxx = np.zeros(self.n)
-        self.sxy = np.zeros(self.n)
-        self.syy = 0.0
-        self.fixes = 0
-        self.v_lo = self.v_hi = None
-
-    def push(self, v_wheel: float) -> None:
-        """Record the wheel speed of the current sample."""
-        self.history.append(v_wheel)
-
-    def add_fix(self, v_gps: float) -> None:
-        """Accumulate one GPS speed taken during straight acceleration."""
-        if len(self.history) < self.n:
-            return
-        past = np.array(self.history)[::-1][:self.n]          # v_wheel(t - j ts), j = 0..n-1
-        self.sxx += past * past
-        self.sxy += past * v_gps
-        self.syy += v_gps * v_gps
-        self.fixes += 1
-        self.v_lo = v_gps if self.v_lo is None else min(self.v_lo, v_gps)
-        self.v_hi = v_gps if self.v_hi is None else max(self.v_hi, v_gps)
-
-    def estimate(self, min_fixes: int, min_speed_change: float) -> float | None:
-        """Delay [s] with the smallest residual (parabolic refinement), or None if not yet identifiable."""
-        if self.fixes < min_fixes or self.v_hi - self.v_lo < min_speed_change:
-            return None
-        resid = self.syy - self.sxy ** 2 / np.maximum(self.sxx, 1e-12)
-        j = int(np.argmin(resid))
-        frac = 0.0
-        if 0 < j < self.n - 1:
-            a, b, c = resid[j - 1], resid[j], resid[j + 1]
-            den = a - 2.0 * b + c
-            frac = 0.5 * (a - c) / den if den > 0 else 0.0
-        return (j + frac) * self.ts
-
-
 # ------------------------------------------------------------------------------ configuration
 @dataclass(frozen=True)
-class Yoon2014Config(EstimatorConfig):
+class Yoon2014Config(ProfiledConfig, GpsLatencyConfig):
     """Parameters of :class:`Yoon2014DualKF`."""
 
     vehicle: str = param("kim2016_asm", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")
@@ -201,18 +173,34 @@ class Yoon2014Config(EstimatorConfig):
     r_straight: float = param(0.03, "AngularVelocity", "Yaw rate below which the car drives straight", gt=0, le=1)
     r_bicycle: float = param(1e-3, "VelocityVariance", "Variance of the V = U tan(beta_bicycle) "
                              "pseudo-measurement", gt=0, le=100)
+    # hardened profile (module docstring)
+    q_bias: float = param(1e-12, "AngularVelocityVariance", "Hardened: random-walk variance of each gyro offset per "
+                          "sample", gt=0, le=1)
+    bias_std0: float = param(0.012, "AngularVelocity", "Hardened: initial uncertainty of the gyro offsets", gt=0, le=1)
+    inclination_std0: float = param(0.2, "Angle", "Hardened: uncertainty of the site's inclination (estimated)", gt=0,
+                                    le=1.6)
+    q_inclination: float = param(1e-12, "AngleVariance", "Hardened: random-walk variance of the inclination per sample",
+                                 gt=0, le=1)
+    sigma_course: float = param(0.01, "Angle", "Hardened: noise of the straight-driving course as a heading, besides "
+                                "sigma_gps / v", gt=0, le=1)
+    course_speed: float = param(5.0, "Velocity", "Hardened: speed below which the course is not used", gt=0, le=50)
+    sigma_roll: float = param(0.01, "Angle", "Hardened: error of the roll model's roll angle", gt=0, le=1)
+    gps_coast: float = param(10.0, "Time", "Hardened: GPS outage after which the estimate is not valid", gt=0, le=600)
+    nis_limit: float = param(25.0, "Dimensionless", "Hardened: GPS innovation consistency (NIS / dof over 10 fixes) "
+                             "above which the estimate is not valid", gt=1, le=1e6)
 
 
 # ------------------------------------------------------------------------------ the estimator
-class Yoon2014DualKF(Estimator):
+class Yoon2014DualKF(ProfiledEstimator):
     """Yoon & Peng 2014 dual Kalman filters (see module docstring)."""
 
     config_class = Yoon2014Config
     input_names = ("ax_m", "ay_m", "yaw_rate_m", "roll_rate_m", "delta_m", *WHEEL_SPEEDS_M, "gps_ve", "gps_vn",
                    "gps_fresh", "gps_valid", "mag_x", "mag_y", "mag_z")
     extra_outputs = ("yaw_hat", "roll_hat", "bias_ax_hat", "bias_ay_hat", "gps_delay_hat", "mag_disturbed")
-    needs = ("gyro biases calibrated at a standstill before driving off; a yaw-rate offset it could not "
-             "calibrate tilts the heading, and the sideslip with it, in every turn")
+    needs = ("as published (profile 0): gyro biases calibrated at a standstill before driving off (an offset it "
+             "could not calibrate tilts the heading, and the sideslip with it, in every turn); hardened: GPS, an "
+             "undisturbed magnetometer, a flat road")
     In = input_enum("In", input_names)
 
     def _init_filter(self):
@@ -239,7 +227,20 @@ class Yoon2014DualKF(Estimator):
                                         mu=cfg.mu, v_min=cfg.v_min)
         self._bicycle = LinearBicycleObserver(bic_cfg, self.vehicle)
         self.yaw = self.roll = 0.0
+        self.inclination = cfg.mag_inclination
         self.disturbed = False
+        if self.hardened:
+            v = self.vehicle
+            self._roll_gain = v.m_s * v.h_s / (v.K_phi_f + v.K_phi_r - v.m_s * GRAVITY * v.h_s)   # phi per a_y
+            self._F_h = np.eye(5)
+            self._F_h[Hd.PSI, Hd.BR] = self._F_h[Hd.PHI, Hd.BP] = -ts
+            self._Q_h = np.diag([cfg.q_psi, cfg.q_phi, cfg.q_bias, cfg.q_bias, cfg.q_inclination])
+            self._psi_hist: deque = deque(maxlen=int(math.ceil(cfg.max_delay / ts)) + 2)
+            self._latency = GpsLatency(ts, cfg.gps_latency, cfg.gps_latency_std, cfg.identify_delay,
+                                       min(cfg.max_delay, 0.5))
+            self.delay = self._latency.value
+            self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
+            self._outage = 0.0
 
     def _extras(self) -> tuple:
         return (self.yaw, self.roll, float(self.kf.x[Sd.BX]), float(self.kf.x[Sd.BY]), self.delay,
@@ -264,6 +265,51 @@ class Yoon2014DualKF(Estimator):
         hd.x[Hd.PSI] = math.remainder(hd.x[Hd.PSI], 2 * math.pi)
         self.yaw, self.roll = hd.x.tolist()
 
+    def _heading_hardened(self, r: float, p: float, mag: tuple, ay: float, still: bool) -> None:
+        """Hardened heading filter on ``[psi, phi, b_r, b_p, incl]``: gyros minus their offsets, zero rates
+        at a standstill, the 3-axis magnetometer with the inclination a state, the roll model."""
+        cfg, ts = self.config, self.Ts
+        norm = math.sqrt(mag[0] ** 2 + mag[1] ** 2 + mag[2] ** 2)
+        self.disturbed = abs(norm - 1.0) > cfg.mag_threshold
+        if self.heading is None:
+            if self.disturbed:                   # start from an undisturbed field only
+                return
+            field = self._field
+            psi0 = math.atan2(field[1], field[0]) - math.atan2(mag[1], mag[0])
+            self.heading = KalmanFilter([math.remainder(psi0, 2 * math.pi), 0.0, 0.0, 0.0, cfg.mag_inclination],
+                                        np.diag([0.1, 0.05, cfg.bias_std0 ** 2, cfg.bias_std0 ** 2,
+                                                 cfg.inclination_std0 ** 2]))
+        hd = self.heading
+        x = hd.x.tolist()
+        hd.predict([x[0] + ts * (r - x[2]), x[1] + ts * (p - x[3]), x[2], x[3], x[4]], self._F_h, self._Q_h)
+        if still:                                # a standstill: both rates are zero
+            hd.update_state(Hd.BR, r - hd.x[Hd.BR], 1e-6)      # a gyro sample's noise (0.06 deg/s)
+            hd.update_state(Hd.BP, p - hd.x[Hd.BP], 1e-6)
+        psi, phi, _, _, incl = hd.x.tolist()
+        field = earth_field(incl, cfg.mag_declination)
+        d_field = (-math.sin(incl) * math.sin(cfg.mag_declination), -math.sin(incl) * math.cos(cfg.mag_declination),
+                   -math.cos(incl))
+        H = np.zeros((3, 5))
+        H[:, :2] = magnetometer_H(psi, phi, field)
+        H[:, 4] = magnetometer_h(psi, phi, d_field)          # the field is linear in F: dm/dincl = M dF/dincl
+        R = self._R_mag_dist if (self.disturbed and cfg.disturbance_rejection) else self._R_mag    # eq 21
+        hd.update(np.array(mag) - magnetometer_h(psi, phi, field), H, R)                           # eq 22
+        hd.update_state(Hd.PHI, self._roll_gain * (ay - GRAVITY * math.sin(hd.x[Hd.PHI])) - hd.x[Hd.PHI],
+                        cfg.sigma_roll ** 2)
+        hd.x[Hd.PSI] = math.remainder(hd.x[Hd.PSI], 2 * math.pi)
+        self.yaw, self.roll, self.b_r, self.b_p, self.inclination = hd.x.tolist()
+
+    def _course_heading(self, ve: float, vn: float, speed: float, beta_bicycle: float) -> None:
+        """Hardened: while straight, the course (of ``delay`` ago) minus the bicycle sideslip measures the heading."""
+        cfg, hd = self.config, self.heading
+        lag = min(int(round(self.delay / self.Ts)), len(self._psi_hist) - 1)
+        shift = self._psi_hist[-1] - self._psi_hist[-1 - lag]        # heading change since the fix's time
+        z = math.atan2(vn, ve) - beta_bicycle + shift
+        r = cfg.sigma_course ** 2 + (cfg.sigma_gps / speed) ** 2
+        hd.update_state(Hd.PSI, math.remainder(z - hd.x[Hd.PSI], 2 * math.pi), r)
+        hd.x[Hd.PSI] = math.remainder(hd.x[Hd.PSI], 2 * math.pi)
+        self.yaw, self.roll, self.b_r, self.b_p, self.inclination = hd.x.tolist()
+
     # ---------------------------------------------------------------- sideslip KF (eqs 24-27)
     def _propagate(self, kf: KalmanFilter, u: tuple, pseudo) -> None:
         """One sample of the sideslip KF: prediction with ``u = (yaw rate, a_x, a_y - g sin(phi))``
@@ -276,10 +322,16 @@ class Yoon2014DualKF(Estimator):
             h = np.array([-pseudo, 0.0, 1.0, 0.0])
             kf.update_scalar(-float(h.dot(kf.x)), h, self.config.r_bicycle)
 
-    def _gps_update(self, kf: KalmanFilter, ve: float, vn: float, psi: float, phi: float) -> None:
+    def _gps_update(self, kf: KalmanFilter, ve: float, vn: float, psi: float, phi: float, accel=None) -> float:
         c, s = math.cos(psi), math.sin(psi)
         z = np.array([c * ve + s * vn, math.cos(phi) * (-s * ve + c * vn)])      # eq 26
-        kf.update(z - self._H_gps.dot(kf.x), self._H_gps, self._R_gps)           # eq 27
+        R = self._R_gps
+        if self.hardened:            # what the delay's and the heading's uncertainty add (module docstring)
+            ax, ay = accel
+            sd, var_psi = self._latency.std, self.heading.P.item(Hd.PSI, Hd.PSI)
+            x = kf.x
+            R = R + np.diag([(ax * sd) ** 2 + x[Sd.V] ** 2 * var_psi, (ay * sd) ** 2 + x[Sd.U] ** 2 * var_psi])
+        return kf.update(z - self._H_gps.dot(kf.x), self._H_gps, R)             # eq 27
 
     def _sample(self, u):
         I, cfg, ts = self.In, self.config, self.Ts
@@ -287,12 +339,16 @@ class Yoon2014DualKF(Estimator):
         r_m, p_m, ax_m, ay_m = u[I.YAW_RATE_M], u[I.ROLL_RATE_M], u[I.AX_M], u[I.AY_M]
         # gyro biases while standing still (Section III.A)
         self._still = self._still + ts if abs(vw) < cfg.standstill_speed else 0.0
-        if self._still > cfg.standstill_settle:  # after the body has settled on its springs
-            self._gyro_sum[0] += r_m
-            self._gyro_sum[1] += p_m
-            self._gyro_n += 1
-            self.b_r, self.b_p = self._gyro_sum[0] / self._gyro_n, self._gyro_sum[1] / self._gyro_n
-        self._heading_step(r_m, p_m, (u[I.MAG_X], u[I.MAG_Y], u[I.MAG_Z]))
+        mag = (u[I.MAG_X], u[I.MAG_Y], u[I.MAG_Z])
+        if self.hardened:
+            self._heading_hardened(r_m, p_m, mag, ay_m - float(self.kf.x[Sd.BY]), self._still > cfg.standstill_settle)
+        else:
+            if self._still > cfg.standstill_settle:  # after the body has settled on its springs
+                self._gyro_sum[0] += r_m
+                self._gyro_sum[1] += p_m
+                self._gyro_n += 1
+                self.b_r, self.b_p = self._gyro_sum[0] / self._gyro_n, self._gyro_sum[1] / self._gyro_n
+            self._heading_step(r_m, p_m, mag)
         if self.heading is None:
             return
         r = r_m - self.b_r
@@ -314,8 +370,22 @@ class Yoon2014DualKF(Estimator):
             d = self._ident.estimate(cfg.delay_min_fixes, cfg.delay_min_speed_change)
             if d is not None:
                 self.delay = d
+                if self.hardened:
+                    self._latency.identified(d)
+        if self.hardened:
+            self._psi_hist.append(self.yaw)
+            self._latency.push(r, self.beta)
+            self._outage = 0.0 if u[I.GPS_VALID] != 0.0 else self._outage + ts
+            speed = math.hypot(u[I.GPS_VE], u[I.GPS_VN])
+            if fresh and speed > cfg.course_speed:
+                self._latency.add_fix(math.atan2(u[I.GPS_VN], u[I.GPS_VE]), r)
+                self.delay = self._latency.value
+                if straight and self._bicycle.valid:
+                    self._course_heading(u[I.GPS_VE], u[I.GPS_VN], speed, self._bicycle.beta)
         if fresh:
-            self._apply_fix(u[I.GPS_VE], u[I.GPS_VN])
+            nis = self._apply_fix(u[I.GPS_VE], u[I.GPS_VN])
+            if self.hardened:
+                self._gps_nis.add(nis, 2)
         U, V = float(kf.x[Sd.U]), float(kf.x[Sd.V])
         self.vx, self.vy, self.yaw_rate = U, V, r
         if U < cfg.v_min or vw < cfg.v_min:    # standing, creeping or reversing (by the KF or the wheels)
@@ -327,22 +397,28 @@ class Yoon2014DualKF(Estimator):
         else:
             self.beta = math.atan2(V, U)                                           # eq 28
             self.beta_std = beta_std(U, V, P[Sd.U, Sd.U], P[Sd.V, Sd.V], P[Sd.U, Sd.V])
+            if self.hardened:        # a heading error turns the GPS velocity, and the sideslip with it
+                self.beta_std = math.hypot(self.beta_std * self._gps_nis.inflation(),
+                                           math.sqrt(self.heading.P.item(Hd.PSI, Hd.PSI)))
         self.valid = True
+        if self.hardened:
+            self.valid = self._outage <= cfg.gps_coast and self._gps_nis.consistent
 
-    def _apply_fix(self, ve: float, vn: float) -> None:
-        """GPS update with measurement shifting (Fig. 7) through the ring buffer."""
+    def _apply_fix(self, ve: float, vn: float) -> float:
+        """GPS update with measurement shifting (Fig. 7) through the ring buffer; returns the update's NIS."""
         kf, buf = self.kf, self._buffer
         back = int(round(self.delay / self.Ts)) if self.config.measurement_shifting else 0
         if back == 0 or back >= len(buf):
-            self._gps_update(kf, ve, vn, self.yaw, self.roll)
+            nis = self._gps_update(kf, ve, vn, self.yaw, self.roll, buf[-1][0][1:])
             buf[-1][4], buf[-1][5] = kf.x.copy(), kf.P.copy()
-            return
+            return nis
         s = len(buf) - 1 - back                 # the sample the fix belongs to
         entry = buf[s]
         kf.x, kf.P = entry[4].copy(), entry[5].copy()
-        self._gps_update(kf, ve, vn, entry[2], entry[3])
+        nis = self._gps_update(kf, ve, vn, entry[2], entry[3], entry[0][1:])
         entry[4], entry[5] = kf.x.copy(), kf.P.copy()
         for j in range(s + 1, len(buf)):        # re-propagate to now, correcting the stored history
             e = buf[j]
             self._propagate(kf, e[0], e[1])
             e[4], e[5] = kf.x.copy(), kf.P.copy()
+        return nis

@@ -15,6 +15,7 @@ from __future__ import annotations
 import ast
 import importlib.util
 import sys
+from functools import lru_cache
 from importlib import metadata
 from pathlib import Path
 
@@ -73,6 +74,13 @@ def module_name(path: Path) -> str:
 def module_imports(path: Path) -> set[str]:
     """Absolute names a file imports (relative imports resolved; ``from m import x`` gives ``m`` and
     ``m.x``, which is a module when such a file exists)."""
+    stat = path.stat()
+    return set(_parsed_imports(path, stat.st_mtime_ns, stat.st_size))
+
+
+@lru_cache(maxsize=1024)
+def _parsed_imports(path: Path, mtime_ns: int, size: int) -> frozenset:
+    """:func:`module_imports` of one version of a file (parsed once; every build asks for every file)."""
     name = module_name(path) if path.is_relative_to(PACKAGE_DIR) else path.stem
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found = set()
@@ -88,7 +96,7 @@ def module_imports(path: Path) -> set[str]:
                 mod = node.module
             found.add(mod)
             found |= {f"{mod}.{a.name}" for a in node.names}
-    return found
+    return frozenset(found)
 
 
 def _closure(script: Path, extra_modules=()) -> tuple[set[Path], set[str]]:

@@ -45,6 +45,10 @@ gravity) passed through a first-order lag ``tau_load`` (states AXF, AYF).  The l
 the algebraic loop loads -> tire forces -> accelerations -> loads and stands in for the
 unmodelled pitch/heave dynamics; with 10 ms it does not change steady-state gains.
 
+Tires: Dugoff (the model of Pi 2011, the default and the papers' tables) or Pacejka's Magic
+Formula 5.2 with combined slip (``tire_model``; :mod:`sideslip.plant.tires`), both with the
+vehicle's cornering stiffness on the road's friction at the static wheel load.
+
 Low speed: slips use ``max(|R w|, v_min)`` (:func:`~sideslip.plant.tires.theoretical_slip`),
 and brake / rolling-resistance torques use ``sat(w) = w / (|w| + omega_eps)`` so that a braked
 car comes to rest without the sign of ``w`` chattering.
@@ -64,9 +68,12 @@ import numpy as np
 
 from ..constants import GRAVITY
 from ..vehicles import VehicleParams
-from .tires import dugoff, friction, theoretical_slip
+from .tires import dugoff, friction, magic_formula, practical_slip, theoretical_slip
 
-__all__ = ["St", "N_STATES", "PlantInputs", "HeldInputs", "Constants", "Aux", "PlantModel"]
+__all__ = ["St", "N_STATES", "PlantInputs", "HeldInputs", "Constants", "Aux", "PlantModel", "DUGOFF", "MAGIC_FORMULA"]
+
+DUGOFF, MAGIC_FORMULA = 0, 1
+"""Values of the plant's ``tire_model`` parameter."""
 
 
 class St(IntEnum):
@@ -194,18 +201,23 @@ class PlantModel:
     v_min, omega_eps, tau_load : float
         Regularisation speed [m/s], brake regularisation [rad/s] and load-transfer lag [s]
         (:class:`~sideslip.plant.vehicle.PlantConfig`).
+    tire_model : int
+        :data:`DUGOFF` or :data:`MAGIC_FORMULA` (:mod:`sideslip.plant.tires`).
     """
 
     vehicle: VehicleParams
     v_min: float = 1.0
     omega_eps: float = 0.5
     tau_load: float = 0.01
+    tire_model: int = 0
     k: Constants = field(init=False, repr=False)
     """Constants of :meth:`derivative`."""
     splits: tuple = field(init=False, repr=False)
     """Drive and brake torque shares per wheel: front drive, rear drive, front brake, rear brake."""
     static: tuple = field(init=False, repr=False)
     """Static front and rear wheel loads, m g, m_s h_s g and K_f + K_r (scaled by the bank in :meth:`held`)."""
+    mf: tuple | None = field(init=False, repr=False)
+    """Magic Formula coefficients of a front and a rear tire (None with Dugoff tires)."""
 
     def __post_init__(self):
         v, g = self.vehicle, GRAVITY
@@ -232,6 +244,11 @@ class PlantModel:
         # static wheel loads on a flat road, gravity-roll and roll-stiffness terms (scaled by the bank)
         object.__setattr__(self, "static", (v.m * g * v.l_r / (2 * l), v.m * g * v.l_f / (2 * l), v.m * g,
                                             mshs * g, v.K_phi_f + v.K_phi_r))
+        if self.tire_model not in (DUGOFF, MAGIC_FORMULA):
+            raise ValueError(f"tire_model must be {DUGOFF} (Dugoff) or {MAGIC_FORMULA} (Magic Formula), got "
+                             f"{self.tire_model!r}")
+        object.__setattr__(self, "mf", (v.magic_formula("front"), v.magic_formula("rear"))
+                           if self.tire_model == MAGIC_FORMULA else None)
 
     # ------------------------------------------------------------------ inputs
     def held(self, u: PlantInputs, stiffness: tuple[float, float] | None = None) -> HeldInputs:
@@ -307,11 +324,7 @@ class PlantModel:
         vyt2 = vyf * cd - vxr * sd
         vxt3 = vx - tr2 * r
         vxt4 = vx + tr2 * r
-        # slips, friction with the velocity effect of eq 7, Dugoff forces (eqs 7-10)
-        sx1, sy1 = theoretical_slip(vxt1, vyt1, w1, R, vmin)
-        sx2, sy2 = theoretical_slip(vxt2, vyt2, w2, R, vmin)
-        sx3, sy3 = theoretical_slip(vxt3, vyr, w3, R, vmin)
-        sx4, sy4 = theoretical_slip(vxt4, vyr, w4, R, vmin)
+        # friction with the velocity effect of eq 7
         if eps_v > 0.0:
             mu1 = friction(mu, eps_v, sqrt((vxt1 - R * w1) ** 2 + vyt1 * vyt1))
             mu2 = friction(mu, eps_v, sqrt((vxt2 - R * w2) ** 2 + vyt2 * vyt2))
@@ -319,10 +332,22 @@ class PlantModel:
             mu4 = friction(mu, eps_v, sqrt((vxt4 - R * w4) ** 2 + vyr * vyr))
         else:
             mu1 = mu2 = mu3 = mu4 = mu
-        fx1, fy1 = dugoff(mu1 * fz1, cs, caf, sx1, sy1)
-        fx2, fy2 = dugoff(mu2 * fz2, cs, caf, sx2, sy2)
-        fx3, fy3 = dugoff(mu3 * fz3, cs, car, sx3, sy3)
-        fx4, fy4 = dugoff(mu4 * fz4, cs, car, sx4, sy4)
+        formula = self.mf
+        if formula is None:     # Dugoff forces on theoretical slips (eqs 7-10)
+            sx1, sy1 = theoretical_slip(vxt1, vyt1, w1, R, vmin)
+            sx2, sy2 = theoretical_slip(vxt2, vyt2, w2, R, vmin)
+            sx3, sy3 = theoretical_slip(vxt3, vyr, w3, R, vmin)
+            sx4, sy4 = theoretical_slip(vxt4, vyr, w4, R, vmin)
+            fx1, fy1 = dugoff(mu1 * fz1, cs, caf, sx1, sy1)
+            fx2, fy2 = dugoff(mu2 * fz2, cs, caf, sx2, sy2)
+            fx3, fy3 = dugoff(mu3 * fz3, cs, car, sx3, sy3)
+            fx4, fy4 = dugoff(mu4 * fz4, cs, car, sx4, sy4)
+        else:                   # Magic Formula on practical slips
+            mf_f, mf_r = formula
+            fx1, fy1 = magic_formula(fz1, mu1, cs, caf, *practical_slip(vxt1, vyt1, w1, R, vmin), mf_f)
+            fx2, fy2 = magic_formula(fz2, mu2, cs, caf, *practical_slip(vxt2, vyt2, w2, R, vmin), mf_f)
+            fx3, fy3 = magic_formula(fz3, mu3, cs, car, *practical_slip(vxt3, vyr, w3, R, vmin), mf_r)
+            fx4, fy4 = magic_formula(fz4, mu4, cs, car, *practical_slip(vxt4, vyr, w4, R, vmin), mf_r)
 
         # body-axis forces and moments
         bx1 = fx1 * cd - fy1 * sd

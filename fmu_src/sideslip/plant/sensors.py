@@ -1,9 +1,11 @@
 """Sensor models: IMU, wheel speeds, steering angle, single-antenna GPS and magnetometer.
 
 Every sensor samples at its own rate (samples at ``k / rate``, zero-order hold between),
-adds a constant bias and white Gaussian noise.  Inputs passed to :meth:`SensorSuite.step`
-are the plant truth at the *end* of the step (the master steps the plant before the
-sensors), so a sensor sample at ``t_k`` sees the truth at ``t_k``.
+adds a constant bias and white Gaussian noise; the yaw-rate bias may also wander as a random
+walk (``yaw_rate_bias_drift``, drawn from a stream of its own so the noise stays the same).
+Inputs passed to :meth:`SensorSuite.step` are the plant truth at the *end* of the step (the
+master steps the plant before the sensors), so a sensor sample at ``t_k`` sees the truth at
+``t_k``.
 
 GPS: fixes at ``k / gps_rate`` (k >= 1) carry the truth velocity of ``t_k - gps_delay``
 (linear interpolation in a bounded history, exact when the delay is a multiple of the
@@ -109,6 +111,8 @@ class SensorConfig:
     mag_dist_min: float = param(0.5, "MagneticFluxRatio", "Smallest disturbance norm (normalised)", ge=0, le=10)
     mag_dist_max: float = param(2.0, "MagneticFluxRatio", "Largest disturbance norm (normalised)", ge=0, le=10)
     mag_dist_horizon: float = param(30.0, "Time", "Time span over which the episodes are spread", gt=0, le=1e5)
+    yaw_rate_bias_drift: float = param(0.0, "AngularVelocity", "Random walk of the yaw-rate bias: 1-sigma of its "
+                                       "change over 100 s (0: a constant bias)", ge=0, le=0.1)
 
     def __post_init__(self):
         check(self)
@@ -173,6 +177,8 @@ class SensorSuite(Model):
         """Initial state: no samples yet, GPS invalid, noise stream restarted from the seed."""
         cfg = self.config
         self._rng = np.random.default_rng([cfg.seed, 1])   # noise stream, independent of the episodes
+        self._walk_rng = np.random.default_rng([cfg.seed, 2])   # bias random walk: leaves the noise stream alone
+        self.yaw_rate_bias = cfg.yaw_rate_bias
         self._noise: list = []
         self._noise_i = 0
         self._reset_clock()
@@ -232,7 +238,10 @@ class SensorSuite(Model):
         if self._imu.due(t):
             out[SO.AX_M] = ax + cfg.ax_bias + cfg.ax_sigma * g()
             out[SO.AY_M] = ay + cfg.ay_bias + cfg.ay_sigma * g()
-            out[SO.YAW_RATE_M] = yaw_rate + cfg.yaw_rate_bias + cfg.yaw_rate_sigma * g()
+            if cfg.yaw_rate_bias_drift > 0.0:      # random walk: variance drift^2 per 100 s
+                self.yaw_rate_bias += cfg.yaw_rate_bias_drift * math.sqrt(0.01 / cfg.imu_rate) * \
+                    float(self._walk_rng.standard_normal())
+            out[SO.YAW_RATE_M] = yaw_rate + self.yaw_rate_bias + cfg.yaw_rate_sigma * g()
             out[SO.ROLL_RATE_M] = roll_rate + cfg.roll_rate_bias + cfg.roll_rate_sigma * g()
         if self._steer.due(t):
             fault = t >= cfg.steer_fault_time and cfg.steer_fault != "none"

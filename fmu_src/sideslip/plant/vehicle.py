@@ -47,6 +47,8 @@ class PlantConfig(VehicleConfig):
                          "stable below 2.78)", gt=0.01, le=2.5)
     max_substeps: int = param(64, "Dimensionless", "Upper bound of RK4 sub-steps per communication step",
                               ge=1, le=10000)
+    tire_model: int = param(0, "Dimensionless", "Tire model: 0 Dugoff (the plant of Pi 2011, the papers' tables), "
+                            "1 Pacejka Magic Formula 5.2 with combined slip", choices=(0, 1))
 
     def __post_init__(self):
         check(self)
@@ -58,7 +60,7 @@ def _wrap(angle: float) -> float:
 
 
 class VehiclePlant(Model):
-    """The 8-DOF vehicle with Dugoff tires, load transfer, in-wheel motors and RK4.
+    """The 8-DOF vehicle with Dugoff or Magic Formula tires, load transfer, in-wheel motors and RK4.
 
     Parameters
     ----------
@@ -79,7 +81,7 @@ class VehiclePlant(Model):
     def __init__(self, config: PlantConfig | None = None, vehicle: VehicleParams | None = None):
         self.config = cfg = config or PlantConfig()
         self.vehicle = v = vehicle or cfg.vehicle_params()
-        self.dynamics = PlantModel(v, cfg.v_min, cfg.omega_eps, cfg.tau_load)
+        self.dynamics = PlantModel(v, cfg.v_min, cfg.omega_eps, cfg.tau_load, cfg.tire_model)
         self._motor_arm = (v.t_f if v.motor_axle == "front" else v.t_r) / v.R_w   # Mz = arm * dT
         self._mu_cache = (None, (v.C_alpha_f, v.C_alpha_r))
         self._decay = (None, 0.0)          # (half sub-step, motor-lag decay over it)

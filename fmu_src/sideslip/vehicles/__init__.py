@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..constants import GRAVITY
 from ..params import ParameterError, build, check, param, parse_assignments
+from ..plant.tires import MagicFormula
 
 __all__ = ["VehicleParams", "VehicleConfig", "load_vehicle", "vehicle_names", "vehicle_source"]
 
@@ -74,6 +75,29 @@ class VehicleParams:
                                 "Rear tire cornering stiffness at mu = mu_lo (linear in mu between)", gt=0)
     eps_v: float = param(0.0, "Slowness", "Dugoff velocity effect factor (friction drop per sliding speed)",
                          ge=0, le=0.2)
+    # Magic Formula 5.2 subset (sideslip.plant.tires; the plant's tire_model 1): shape, peak, combined slip
+    mf_pCx1: float = param(1.6, "Dimensionless", "Magic Formula: longitudinal shape factor C_x", gt=1, lt=2)
+    mf_pDx1: float = param(1.0, "Dimensionless", "Magic Formula: longitudinal friction at the nominal load (x mu)",
+                           gt=0, le=2)
+    mf_pDx2: float = param(-0.08, "Dimensionless", "Magic Formula: variation of the longitudinal friction with load",
+                           ge=-0.5, le=0.5)
+    mf_pEx1: float = param(0.3, "Dimensionless", "Magic Formula: longitudinal curvature E_x", ge=-5, lt=1)
+    mf_pCy1: float = param(1.3, "Dimensionless", "Magic Formula: lateral shape factor C_y", gt=1, lt=2)
+    mf_pDy1: float = param(1.0, "Dimensionless", "Magic Formula: lateral friction at the nominal load (x mu)",
+                           gt=0, le=2)
+    mf_pDy2: float = param(-0.1, "Dimensionless", "Magic Formula: variation of the lateral friction with load",
+                           ge=-0.5, le=0.5)
+    mf_pEy1: float = param(-0.8, "Dimensionless", "Magic Formula: lateral curvature E_y", ge=-5, lt=1)
+    mf_pKy2: float = param(1.7, "Dimensionless", "Magic Formula: load (x nominal) of the cornering-stiffness peak",
+                           gt=0.5, le=5)
+    mf_rBx1: float = param(12.0, "Dimensionless", "Magic Formula: combined slip, Fx reduction slope", gt=0, le=50)
+    mf_rBx2: float = param(10.0, "Dimensionless", "Magic Formula: combined slip, its variation with kappa",
+                           ge=0, le=50)
+    mf_rCx1: float = param(1.08, "Dimensionless", "Magic Formula: combined slip, Fx reduction shape", gt=0, le=2)
+    mf_rBy1: float = param(8.0, "Dimensionless", "Magic Formula: combined slip, Fy reduction slope", gt=0, le=50)
+    mf_rBy2: float = param(7.0, "Dimensionless", "Magic Formula: combined slip, its variation with alpha",
+                           ge=0, le=50)
+    mf_rCy1: float = param(1.05, "Dimensionless", "Magic Formula: combined slip, Fy reduction shape", gt=0, le=2)
     # estimator-side nominal values (axle)
     C_f_nominal: float = param(120000.0, "CorneringStiffness", "Nominal front-axle cornering stiffness at mu ~ 1 "
                                "(what the papers' filters assume)", gt=0)
@@ -162,6 +186,17 @@ class VehicleParams:
         return (self.C_f_nominal_lo + w * (self.C_f_nominal - self.C_f_nominal_lo),
                 self.C_r_nominal_lo + w * (self.C_r_nominal - self.C_r_nominal_lo))
 
+    def static_wheel_load(self, axle: str) -> float:
+        """Load of one wheel of the ``"front"`` or ``"rear"`` axle at rest on a flat road [N]."""
+        share = self.l_r if axle == "front" else self.l_f
+        return self.m * GRAVITY * share / (2.0 * self.l)
+
+    def magic_formula(self, axle: str):
+        """Magic Formula coefficients of a tire of the ``"front"`` or ``"rear"`` axle, its nominal load
+        the static wheel load (so that both tire models have the vehicle's stiffness there)."""
+        return MagicFormula(self.static_wheel_load(axle), *(getattr(self, f"mf_{name}")
+                                                            for name in MagicFormula._fields[1:]))
+
     def with_overrides(self, overrides: str | dict) -> "VehicleParams":
         """A copy with some fields replaced (``"m=2000, I_zz=3800"`` or a mapping), validated."""
         items = parse_assignments(overrides, "vehicle_overrides") if isinstance(overrides, str) else dict(overrides)
@@ -212,7 +247,8 @@ def load_vehicle(name_or_path: str, overrides: str | dict = "") -> VehicleParams
 
 
 def vehicle_source(name_or_path: str) -> dict:
-    """The ``[source]`` table of a vehicle file (paper, table, assumed values with reasons)."""
+    """The ``[source]`` table of a vehicle file (paper, table, assumed values with reasons; a key of
+    ``assumed`` may be a glob pattern naming a group, e.g. ``"mf_*"``)."""
     return dict(_load_file(str(_resolve(name_or_path)))[1])
 
 

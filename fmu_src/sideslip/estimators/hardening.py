@@ -1,0 +1,265 @@
+"""What the hardened profiles of the papers' estimators share.
+
+Every paper's estimator has two profiles, chosen by its ``profile`` parameter:
+``0`` the method as published (the papers' tables are computed with it) and ``1`` hardened for
+sensors and vehicles other than the paper's (the default).  Each method documents its own
+additions; these are the common parts:
+
+* :class:`InnovationMonitor` - does the filter's covariance explain its innovations (NIS over a
+  window)?  The reported std is inflated by it and the estimate is not valid when it fails.
+* :func:`model_sideslip_std` - the sideslip error of a cornering stiffness that is a fraction off.
+* :class:`TireLinearity` - does the single-track model with linear tires explain the measured
+  steering, yaw rate and accelerations?  Beyond the tires' linear range (on snow at 0.3 g, on
+  asphalt near the limit) every linear-model estimate is wrong whatever its covariance says; the
+  gap sets a sideslip uncertainty that enters the filter's covariance and the reported std
+  (:class:`ModelTrust` applies both).
+* the validity gate of :class:`ProfiledEstimator`: an estimate whose reported std exceeds
+  ``valid_std_max`` is not valid, so ``valid`` follows whatever the std knows, and after any break
+  ``valid`` is reported only once the estimate has been valid for ``valid_hold`` seconds (a filter
+  that has just left a state it could not model needs that long to re-converge).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..bicycle import axle_forces
+from ..params import param
+from ..vehicles import VehicleParams
+from .base import Estimator, EstimatorConfig, lowpass
+
+__all__ = ["PUBLISHED", "HARDENED", "ProfiledConfig", "GpsLatencyConfig", "LinearTireConfig", "ProfiledEstimator", "InnovationMonitor",
+           "model_sideslip_std", "TireLinearity", "ModelTrust"]
+
+PUBLISHED, HARDENED = 0, 1
+"""Values of the ``profile`` parameter."""
+
+
+@dataclass(frozen=True)
+class ProfiledConfig(EstimatorConfig):
+    """:class:`~sideslip.estimators.base.EstimatorConfig` plus the choice of profile."""
+
+    profile: int = param(1, "Dimensionless", "0: the method as published (the papers' tables); 1: hardened for "
+                         "sensors and vehicles other than the paper's (each addition documented with the method)",
+                         choices=(PUBLISHED, HARDENED))
+    valid_std_max: float = param(0.026, "Angle", "Hardened: beta_hat_std above which the estimate is not valid",
+                                 gt=0, le=1.0)
+    valid_hold: float = param(1.0, "Time", "Hardened: how long the estimate must have been valid without a break "
+                              "before valid is reported (a filter needs time to re-converge)", ge=0, le=60)
+
+
+@dataclass(frozen=True)
+class GpsLatencyConfig:
+    """The hardened profile's GPS delay (:class:`~sideslip.estimators.delay.GpsLatency`), for the methods that
+    use GPS."""
+
+    gps_latency: float = param(0.1, "Time", "Hardened: GPS delay used until it is identified (the receiver's "
+                               "latency)", ge=0, le=0.5)
+    gps_latency_std: float = param(0.1, "Time", "Hardened: uncertainty of gps_latency (its error enters the course "
+                                   "noise as yaw rate x delay)", ge=0, le=0.5)
+    identify_delay: bool = param(True, "Dimensionless", "Hardened: identify the GPS delay while the yaw rate changes")
+
+
+@dataclass(frozen=True)
+class LinearTireConfig(ProfiledConfig):
+    """:class:`ProfiledConfig` of a method built on the linear single-track model (:class:`ModelTrust`)."""
+
+    stiffness_error: float = param(0.3, "Dimensionless", "Hardened: relative error of the vehicle file's cornering "
+                                   "stiffness in the reported std", ge=0, le=2)
+    kinematic_gap: float = param(0.01, "Angle", "Hardened: tire-linearity gap at which the estimate leans half on the "
+                                 "kinematic (sensor) path instead of the linear tires", gt=0, le=1)
+
+
+class ProfiledEstimator(Estimator):
+    """An estimator with a published and a hardened profile (``self.hardened``; a method may turn it
+    off for a variant it does not harden)."""
+
+    config_class = ProfiledConfig
+
+    def reset(self) -> None:
+        self.hardened = self.config.profile == HARDENED
+        self._valid_since = None
+        super().reset()
+
+    def _pack(self) -> tuple:
+        if self.hardened:
+            cfg = self.config
+            if self.beta_std > cfg.valid_std_max:
+                self.valid = False
+            if not self.valid:
+                self._valid_since = None
+            elif self._valid_since is None:
+                self._valid_since = self.t
+            out = super()._pack()
+            if self.valid and self.t - self._valid_since < cfg.valid_hold - 1e-9:
+                out = out[:5] + (0.0,) + out[6:]            # the filter's own flag stays, the output waits
+            return out
+        return super()._pack()
+
+
+class InnovationMonitor:
+    """Normalised innovation squared (NIS) of a filter over a sliding window: does its covariance
+    explain its innovations?
+
+    For a consistent filter the NIS of an ``m``-dimensional innovation averages ``m``; :attr:`ratio`
+    is the window's sum of NIS over its sum of ``m``.  A ratio well above 1 says the filter's
+    covariance is too small for what it sees (model error, a sensor offset): the hardened estimators
+    scale their reported standard deviation by ``sqrt(ratio)`` (:meth:`inflation`) and call the
+    estimate not valid above ``limit``.
+
+    Parameters
+    ----------
+    window : int
+        Number of updates in the window.
+    limit : float
+        Ratio above which the filter is judged inconsistent.
+    """
+
+    __slots__ = ("_nis", "_dof", "_i", "_sum_nis", "_sum_dof", "limit", "count")
+
+    def __init__(self, window: int, limit: float = 10.0):
+        self._nis = [0.0] * window
+        self._dof = [0.0] * window
+        self._i = 0
+        self._sum_nis = self._sum_dof = 0.0
+        self.limit = limit
+        self.count = 0
+
+    def add(self, nis: float, dof: int = 1) -> None:
+        """Record one update's NIS (capped at 1e6 so one outlier cannot poison the window)."""
+        nis = nis if nis < 1e6 else 1e6
+        i = self._i
+        self._sum_nis += nis - self._nis[i]
+        self._sum_dof += dof - self._dof[i]
+        self._nis[i], self._dof[i] = nis, float(dof)
+        self._i = (i + 1) % len(self._nis)
+        self.count += 1
+
+    @property
+    def ratio(self) -> float:
+        """Sum of NIS over the sum of degrees of freedom in the window (1 for a consistent filter)."""
+        return self._sum_nis / self._sum_dof if self._sum_dof > 0.0 else 1.0
+
+    def inflation(self) -> float:
+        """Factor for the reported standard deviation, ``sqrt(max(1, ratio))``."""
+        r = self.ratio
+        return math.sqrt(r) if r > 1.0 else 1.0
+
+    @property
+    def consistent(self) -> bool:
+        """False once a full window's ratio exceeds :attr:`limit`."""
+        return self.count < len(self._nis) or self.ratio <= self.limit
+
+
+def model_sideslip_std(vehicle: VehicleParams, ay: float, stiffness_error: float) -> float:
+    """1-sigma of a linear-tire sideslip from an uncertain cornering stiffness [rad].
+
+    The sideslip of a single-track model is set by the rear slip angle ``alpha_r = F_yr / C_r`` with
+    ``F_yr = m l_f a_y / l``; a relative stiffness error ``e`` moves it by ``e alpha_r``.  The hardened
+    model-based estimators add this to their filter's std: their covariance knows the sensor noise,
+    not that the vehicle file's stiffness may be 30 % off.  (What the tires' departure from linear
+    adds is measured by :class:`TireLinearity`.)
+    """
+    v = vehicle
+    return stiffness_error * abs(v.m * v.l_f * ay / (v.l * v.C_r_nominal))
+
+
+class ModelTrust:
+    """What a hardened linear-tire filter adds to its sideslip uncertainty (:class:`LinearTireConfig`).
+
+    :meth:`apply` raises the sideslip variance of the filter's covariance to what
+    :class:`TireLinearity` leaves open (so that the filter re-converges from the measurements once
+    the tires are linear again, instead of trusting an estimate fitted to the wrong model) and returns
+    :func:`model_sideslip_std`, which the estimator adds to its reported std.
+    """
+
+    __slots__ = ("linearity", "_vehicle", "_e")
+
+    def __init__(self, vehicle: VehicleParams, ts: float, config: LinearTireConfig):
+        self.linearity = TireLinearity(vehicle, ts, config.stiffness_error)
+        self._vehicle, self._e = vehicle, config.stiffness_error
+
+    def apply(self, P, i: int, vx: float, r: float, delta: float, ay: float, mz: float = 0.0) -> float:
+        """One sample: the linearity check updated, ``P[i, i]`` (the sideslip's variance) raised in place;
+        returns the model std [rad]."""
+        self.linearity.update(vx, r, delta, ay, mz)
+        return self.raise_variance(P, i, ay)
+
+    def raise_variance(self, P, i: int, ay: float) -> float:
+        """:meth:`apply` after the linearity check was updated this sample."""
+        sigma = self.linearity.sigma
+        if P[i, i] < sigma * sigma:
+            P[i, i] = sigma * sigma
+        return self.model_std(ay)
+
+    def kinematic_weight(self, half: float) -> float:
+        """How far beyond the tires' linear range the car is, in ``[0, 1)``: ``sigma / (sigma + half)`` of
+        :class:`TireLinearity` (``half`` [rad] the gap at which it is one half)."""
+        sigma = self.linearity.sigma
+        return sigma / (sigma + half)
+
+    def model_std(self, ay: float) -> float:
+        """:func:`model_sideslip_std` of the estimator's vehicle at the lateral acceleration ``ay`` plus what
+        :class:`TireLinearity` last found unexplained [rad]."""
+        return model_sideslip_std(self._vehicle, ay, self._e) + self.linearity.sigma
+
+
+class TireLinearity:
+    """Sideslip uncertainty from what the single-track model with linear tires cannot explain.
+
+    The measured lateral and yaw accelerations give the axle forces (force and moment balance,
+    :func:`~sideslip.bicycle.axle_forces`); linear tires turn them into slip angles
+    ``alpha_i = F_yi / C_i``.  The geometry of the single-track model ties their difference to the
+    measured steering angle whatever the sideslip: ``alpha_f - alpha_r = delta - l r / v_x``.  Within
+    the tires' linear range the two sides agree up to the stiffness error (``rel`` of the slip angles)
+    and the sensor offsets (``delta_abs``); beyond it - the front or the rear axle saturated on snow,
+    or at the limit on asphalt - they part, and by about the slip angle that the saturated axle has
+    beyond its linear value: a linear-tire sideslip is that uncertain.  The gap, low-pass filtered
+    with ``tau``, is :attr:`sigma` [rad].  The check needs no sideslip estimate, so a filter that has
+    fitted its sideslip to the wrong model cannot hide it.  It rises with ``tau`` and falls with
+``tau_down``: after a slide the filter needs time to re-converge.
+
+    Parameters
+    ----------
+    vehicle : VehicleParams
+        The estimator's vehicle (nominal axle stiffness at mu = 1).
+    ts : float
+        Sample period [s].
+    rel : float
+        Relative tolerance on the slip angles (the stiffness error the vehicle file may have).
+    delta_abs : float
+        Absolute tolerance [rad] (steering and accelerometer offsets, road bank).
+    tau : float
+        Time constant of the low-pass filters on the yaw acceleration and of the gap's rise [s].
+    tau_down : float
+        Time constant of the gap's fall [s].
+    """
+
+    __slots__ = ("_m", "_iz", "_lf", "_lr", "_cf", "_cr", "_ts", "_rel", "_abs", "_cut", "_cut_down", "_r_prev",
+                 "_r_dot", "sigma")
+
+    def __init__(self, vehicle: VehicleParams, ts: float, rel: float = 0.3, delta_abs: float = 0.005,
+                 tau: float = 0.1, tau_down: float = 2.0):
+        v = vehicle
+        self._m, self._iz, self._lf, self._lr = v.m, v.I_zz, v.l_f, v.l_r
+        self._cf, self._cr = v.C_f_nominal, v.C_r_nominal
+        self._ts, self._rel, self._abs = ts, rel, delta_abs
+        self._cut = 1.0 / (2.0 * math.pi * tau)
+        self._cut_down = 1.0 / (2.0 * math.pi * tau_down)
+        self._r_prev = None
+        self._r_dot = self.sigma = 0.0
+
+    def update(self, vx: float, r: float, delta: float, ay: float, mz: float = 0.0) -> float:
+        """One sample with the measured yaw rate, steering angle [rad], lateral acceleration [m/s2] and the
+        controller's yaw moment [N m]; returns :attr:`sigma` [rad]."""
+        if self._r_prev is not None:
+            self._r_dot = lowpass(self._r_dot, (r - self._r_prev) / self._ts, self._ts, self._cut)
+        self._r_prev = r
+        fyf, fyr = axle_forces(self._m, self._iz, self._lf, self._lr, ay, self._r_dot, mz)
+        alpha_f, alpha_r = fyf / self._cf, fyr / self._cr
+        gap = abs(delta - (self._lf + self._lr) * r / vx - (alpha_f - alpha_r)) \
+            - self._rel * (abs(alpha_f) + abs(alpha_r)) - self._abs
+        gap = gap if gap > 0.0 else 0.0
+        # up fast, down slowly: a filter that has just left a state it could not model is wrong for a while
+        self.sigma = lowpass(self.sigma, gap, self._ts, self._cut if gap > self.sigma else self._cut_down)
+        return self.sigma

@@ -1,0 +1,365 @@
+"""The estimator benchmark: every estimator on every case, a case being a scenario under a condition.
+
+Protocol
+--------
+A *case* is a benchmark scenario (:data:`sideslip.scenarios.BENCHMARK_TEST`, or the training set
+:data:`~sideslip.scenarios.BENCHMARK_TRAINING` that the hardened estimators were tuned on) under
+one of four *conditions*, with a seed that draws everything random about it:
+
+* ``nominal`` - the scenario as defined: clean sensors, the plant on Dugoff tires, the
+  estimators on the plant's own vehicle file;
+* ``sensors`` - automotive-grade sensor errors (:func:`sensor_errors`): gyro offsets up to
+  +-0.6 deg/s with a slow random walk on the yaw rate, accelerometer offsets up to +-0.25 m/s2,
+  datasheet noise, GPS velocity at 10 Hz with 0.1 s delay and 0.05-0.1 m/s noise, a steering
+  offset, a rolling-radius error, a site's magnetic inclination the estimators do not know;
+  the car drives from the first sample (no standstill to calibrate at);
+* ``mismatch`` - the plant on Magic Formula tires and the estimators' vehicle perturbed from the
+  plant's (:func:`vehicle_mismatch`): cornering stiffness -30 % or +30 % (and +-10 % per axle),
+  mass +-10 %, yaw inertia +-15 %, CG +-5 cm;
+* ``sensors+mismatch`` - both (the headline).
+
+Each case is simulated once (driver, plant and sensors of the library, 1 ms), and every estimator
+row runs on the recorded sensor signals (:func:`sideslip.recording.replay`): without a
+controller the estimators do not act on the plant, so this equals running them in the loop.
+Rows: predict-zero (``beta_hat = 0``), the textbook linear bicycle Kalman filter
+(:class:`~sideslip.estimators.baselines.LinearBicycleObserver`), the open-loop kinematic
+integration, and every method of the papers.  The estimators get what a user would give them:
+the (perturbed) vehicle, their own default sample period and settings, no friction hint as a
+parameter (Park 2018's friction *input* carries the road's, as from an upstream friction
+estimator), and the magnetometer calibration of their defaults in the ``sensors`` conditions.
+
+Metrics per row and case, over the samples where the car moves faster than 2 m/s, whether the
+estimator says ``valid`` or not (so that it cannot improve its score by declaring the hard parts,
+or a long start-up, not valid; an estimator that is not yet sure should output its prior, zero): RMS and maximum sideslip error and predict-zero's RMS on the same samples; the RMS
+while ``valid`` (and predict-zero's on those samples); the share of moving samples it is valid
+(``valid``) and the time to its first valid sample; the consistency of ``beta_hat_std`` (RMS error
+over RMS reported std, the mean NEES and the share of samples within 1.96 std, 95 % for a
+consistent estimator); the longest stretch it is valid while more than 3 deg off, and how often its filter failed numerically and was restarted
+(:attr:`~sideslip.estimators.base.Estimator.restarts`).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ..estimators import ESTIMATORS
+from ..params import build, declared_fields
+from ..plant.driver import Driver, DriverConfig
+from ..plant.loop import run_loop
+from ..plant.sensors import SensorConfig, SensorSuite
+from ..plant.vehicle import PlantConfig, VehiclePlant
+from ..recording import LogError, Recording, read_log, replay
+from ..scenarios import BENCHMARK_TEST, BENCHMARK_TRAINING, Scenario, get_scenario
+from ..signals import SENSOR_INPUTS, SENSOR_OUTPUTS
+from ..vehicles import VehicleParams, load_vehicle
+from .jobs import map_ordered
+
+__all__ = ["CONDITIONS", "RECORDED", "EVAL_SPEED", "OFF_DEG", "Row", "ROWS", "PAPER_METHODS", "Case", "cases", "log_case",
+           "sensor_errors", "vehicle_mismatch", "setup", "record", "simulate", "make_estimator", "recorded_speed",
+           "row_metrics", "run_case", "select_rows", "run_benchmark"]
+
+CONDITIONS = ("nominal", "sensors", "mismatch", "sensors+mismatch")
+RECORDED = "recorded"
+"""The condition of a case that is a recorded drive (:func:`log_case`)."""
+EVAL_SPEED = 2.0
+"""[m/s] below which sideslip is not evaluated (undefined at standstill)."""
+OFF_DEG = 3.0
+"""[deg] an error beyond which the estimator should not say ``valid`` for long."""
+_DEG = 180.0 / math.pi
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of the leaderboard: an estimator class with parameter values, or a reference."""
+
+    label: str
+    estimator: str | None            #: a name of sideslip.estimators.ESTIMATORS, None for predict-zero
+    params: tuple = ()               #: ((name, value), ...) on top of its defaults
+    kind: str = "method"             #: "reference" or "method"
+
+
+PAPER_METHODS = ("Park2018Observer", "Kim2016SteeringEKF", "Yoon2014DualKF", "Pi2011FuzzyEKF", "Nguyen2012DACMRKF")
+
+ROWS = (
+    Row("predict-zero", None, kind="reference"),
+    Row("LinearBicycleObserver", "LinearBicycleObserver", kind="reference"),
+    Row("OpenLoopKinematic", "OpenLoopKinematic", kind="reference"),
+    *(Row(f"{name}/published", name, (("profile", 0),)) for name in PAPER_METHODS),
+    *(Row(f"{name}/hardened", name, (("profile", 1),)) for name in PAPER_METHODS),
+)
+"""The rows of the benchmark."""
+
+
+@dataclass(frozen=True)
+class Case:
+    """A scenario under a condition with a seed, or a recorded drive (condition :data:`RECORDED`: the
+    scenario is the log's path, ``log_map`` its column map and ``vehicle`` the estimators' vehicle)."""
+
+    scenario: str
+    condition: str
+    seed: int = 0
+    log_map: str | None = None
+    vehicle: str | None = None
+
+    @property
+    def name(self) -> str:
+        return f"{self.scenario}/{self.condition}/{self.seed}"
+
+
+def log_case(path: str, log_map: str | None = None, vehicle: str | None = None) -> Case:
+    """A benchmark case of a recorded drive (a CSV log with a reference sideslip)."""
+    return Case(str(path), RECORDED, 0, log_map, vehicle)
+
+
+def cases(scenarios=None, conditions=CONDITIONS, seeds=5, training: bool = False) -> list[Case]:
+    """Every scenario x condition x seed (the test set by default)."""
+    names = scenarios or [s.name for s in (BENCHMARK_TRAINING if training else BENCHMARK_TEST)]
+    for c in conditions:
+        if c not in CONDITIONS:
+            raise ValueError(f"unknown condition {c!r}; conditions: {', '.join(CONDITIONS)}")
+    return [Case(n, c, s) for n in names for c in conditions for s in range(seeds)]
+
+
+def _rng(case: Case, what: str) -> np.random.Generator:
+    """A generator for one aspect of a case, the same whatever else is drawn."""
+    key = [case.seed, *(ord(ch) for ch in f"{case.scenario}/{what}")]
+    return np.random.default_rng(key)
+
+
+# ---------------------------------------------------------------------------------------- conditions
+def sensor_errors(case: Case) -> dict:
+    """Automotive-grade sensor errors of a case (SensorConfig values), drawn from its seed."""
+    r = _rng(case, "sensors")
+    deg = math.pi / 180.0
+    return dict(
+        yaw_rate_bias=r.uniform(-0.6, 0.6) * deg, yaw_rate_bias_drift=0.1 * deg,
+        roll_rate_bias=r.uniform(-0.6, 0.6) * deg,
+        ax_bias=r.uniform(-0.25, 0.25), ay_bias=r.uniform(-0.25, 0.25),
+        ax_sigma=0.05, ay_sigma=0.05, yaw_rate_sigma=0.1 * deg, roll_rate_sigma=0.1 * deg,
+        gps_rate=10.0, gps_delay=0.1, gps_vel_sigma=r.uniform(0.05, 0.1),
+        steer_bias=r.uniform(-0.003, 0.003), wheel_radius_error=r.uniform(-0.01, 0.01),
+        mag_inclination=r.uniform(55.0, 72.0) * deg, mag_sigma=0.01,
+    )
+
+
+def vehicle_mismatch(vehicle: VehicleParams, case: Case) -> VehicleParams:
+    """The estimators' vehicle of a case: cornering stiffness -30 % or +30 % (and +-10 % per axle),
+    mass +-10 %, yaw inertia +-15 %, CG +-5 cm, drawn from its seed."""
+    r = _rng(case, "vehicle")
+    common = 0.7 if r.random() < 0.5 else 1.3
+    kf, kr = common * r.uniform(0.9, 1.1), common * r.uniform(0.9, 1.1)
+    km, kz, dcg = r.uniform(0.9, 1.1), r.uniform(0.85, 1.15), r.uniform(-0.05, 0.05)
+    v = vehicle
+    return v.with_overrides({
+        "C_f_nominal": v.C_f_nominal * kf, "C_r_nominal": v.C_r_nominal * kr,
+        "C_f_nominal_lo": v.C_f_nominal_lo * kf, "C_r_nominal_lo": v.C_r_nominal_lo * kr,
+        "m": v.m * km, "m_s": v.m_s * km, "m_uf": v.m_uf * km, "m_ur": v.m_ur * km, "I_zz": v.I_zz * kz,
+        "l_f": v.l_f + dcg, "l_r": v.l_r - dcg, "l_fs": v.l_fs + dcg, "l_rs": v.l_rs - dcg})
+
+
+@dataclass
+class CaseSetup:
+    """What a case is made of."""
+
+    scenario: Scenario
+    plant: dict
+    sensors: dict
+    vehicle: VehicleParams           #: the plant's
+    estimator_vehicle: VehicleParams
+    calibrated_field: bool           #: estimators get the sensors' Earth field
+
+
+def setup(case: Case) -> CaseSetup:
+    """The scenario, plant and sensor parameters and the estimators' vehicle of a case (of a recorded drive:
+    the vehicle named by the case, or None for each estimator's own default)."""
+    if case.condition == RECORDED:
+        return CaseSetup(None, {}, {}, None, load_vehicle(case.vehicle) if case.vehicle else None, False)
+    sc = get_scenario(case.scenario)
+    sensors = {**sc.sensor_params(), "seed": 1000 + case.seed}
+    plant = dict(sc.plant_params())
+    noisy = "sensors" in case.condition
+    if noisy:
+        sensors.update(sensor_errors(case))
+    vehicle = build(PlantConfig, plant).vehicle_params()
+    estimator_vehicle = vehicle
+    if "mismatch" in case.condition:
+        plant["tire_model"] = 1
+        estimator_vehicle = vehicle_mismatch(vehicle, case)
+    return CaseSetup(sc, plant, sensors, vehicle, estimator_vehicle, calibrated_field=not noisy)
+
+
+# ---------------------------------------------------------------------------------------- one case
+@lru_cache(maxsize=4)
+def _truth(scenario: str, tire_model: int, step: float = 1e-3) -> dict:
+    """Driver and plant of a scenario on one tire model (no randomness: shared by every condition and seed
+    on these tires)."""
+    sc = get_scenario(scenario)
+    driver = Driver(build(DriverConfig, sc.driver_params()))
+    plant = VehiclePlant(build(PlantConfig, {**sc.plant_params(), "tire_model": tire_model}))
+    return run_loop(plant, driver, sc.duration, step)
+
+
+def record(scenario: str, sensors: dict, tire_model: int = 0, step: float = 1e-3, name: str = "") -> Recording:
+    """Driver, plant and sensors of a scenario, as the fmpy master's Gauss-Seidel loop runs them: the sensors
+    (:class:`~sideslip.plant.sensors.SensorConfig` values ``sensors``) sample the plant's truth at the end of
+    every step, so the truth of a scenario on one tire model is simulated once and sampled by the sensors of
+    each condition and seed."""
+    truth = _truth(scenario, tire_model, step)
+    suite = SensorSuite(build(SensorConfig, sensors))
+    n = len(truth["time"])
+    inputs = np.column_stack([truth[nm] for nm in SENSOR_INPUTS]).tolist()
+    out = np.empty((n, len(SENSOR_OUTPUTS)))
+    out[0] = suite.outputs()
+    for k in range(1, n):
+        suite.step(step, *inputs[k])
+        out[k] = suite.outputs()
+    signals = {nm: out[:, i] for i, nm in enumerate(SENSOR_OUTPUTS)}
+    signals["mu"] = truth["mu"]
+    reference = {nm: truth[nm] for nm in ("beta", "vx", "vy", "yaw_rate", "ay", "roll", "yaw")}
+    return Recording(truth["time"], signals, reference, name or scenario)
+
+
+def simulate(case: Case, step: float = 1e-3) -> Recording:
+    """The recorded drive of a case (:func:`record` with its sensors and tires)."""
+    s = setup(case)
+    return record(case.scenario, s.sensors, s.plant.get("tire_model", 0), step, case.name)
+
+
+def make_estimator(row: Row, s: CaseSetup):
+    """The estimator of a row configured for a case (see module docstring)."""
+    cls = ESTIMATORS[row.estimator]
+    values = dict(row.params)
+    names = {f.name for f, _ in declared_fields(cls.config_class)}
+    if s.calibrated_field:
+        values.update({k: v for k, v in s.sensors.items() if k in ("mag_inclination", "mag_declination") and k in names})
+    config = build(cls.config_class, values)
+    return cls(config, vehicle=s.estimator_vehicle)
+
+
+def _longest(mask: np.ndarray, dt: float) -> float:
+    """Longest run of True [s]."""
+    if not mask.any():
+        return 0.0
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    return float((edges[1::2] - edges[::2]).max() * dt)
+
+
+def recorded_speed(rec: Recording) -> np.ndarray:
+    """The car's speed in a recording [m/s]: the reference velocity (a simulation's truth, a log's INS),
+    else the GPS speed; without either, every sample counts as moving."""
+    if "vx" in rec.reference:
+        return np.hypot(rec.reference["vx"], rec.reference.get("vy", 0.0))
+    if "gps_speed" in rec.signals:
+        return np.asarray(rec.signals["gps_speed"], dtype=float)
+    return np.full(len(rec.time), np.inf)
+
+
+def row_metrics(rec: Recording, beta_hat, std, valid) -> dict:
+    """Metrics of one row on one recorded case (module docstring)."""
+    t = rec.time
+    dt = float(t[1] - t[0])
+    moving = recorded_speed(rec) > EVAL_SPEED
+    valid = np.asarray(valid) > 0.5
+    ok = moving & valid
+    beta = rec.reference["beta"]
+    err = (np.pi - np.mod(np.pi - (np.asarray(beta_hat) - beta), 2.0 * np.pi)) * _DEG
+    std = np.asarray(std) * _DEG
+    out = {"valid": float(ok.sum() / max(moving.sum(), 1)),
+           "time_to_valid": float(t[np.argmax(ok)] - t[np.argmax(moving)]) if ok.any() else float("nan"),
+           "max_abs_beta": float(np.abs(beta[moving]).max() * _DEG) if moving.any() else 0.0}
+    nan = float("nan")
+    if not moving.any():
+        return {**out, **dict.fromkeys(("rms", "max", "zero_rms", "rms_valid", "zero_rms_valid", "std_ratio", "nees",
+                                        "coverage95"), nan), "off_while_valid": 0.0}
+    scored = moving                                   # every moving sample, valid or not
+    rms = lambda e: float(np.sqrt(np.mean(e ** 2))) if e.size else nan   # noqa: E731
+    e = err[scored]
+    out.update(rms=rms(e), max=float(np.abs(e).max()), zero_rms=rms(beta[scored] * _DEG),
+               rms_valid=rms(err[ok]), zero_rms_valid=rms(beta[ok] * _DEG),
+               off_while_valid=_longest(ok & (np.abs(err) > OFF_DEG), dt))
+    if np.isfinite(std).all():                   # predict-zero reports no uncertainty
+        s = np.maximum(std[scored], 1e-9)
+        out.update(std_ratio=rms(e) / rms(s), nees=float(np.mean((e / s) ** 2)),
+                   coverage95=float(np.mean(np.abs(e) <= 1.96 * s)))
+    else:
+        out.update(std_ratio=nan, nees=nan, coverage95=nan)
+    return out
+
+
+def run_case(case: Case, rows=ROWS, traces: bool = False) -> dict:
+    """Simulate a case and score every row on it.
+
+    Returns
+    -------
+    dict
+        ``case``, ``scenario``, ``condition``, ``seed``, ``mu_min``, ``wall_s``, ``rows``:
+        ``{label: metrics}`` and, with ``traces``, decimated ``time``, ``beta`` and each row's
+        ``beta_hat`` [deg] for the plots.
+    """
+    t0 = time.perf_counter()
+    s = setup(case)
+    rec = read_log(case.scenario, case.log_map).on_grid(1e-3) if case.condition == RECORDED else simulate(case)
+    if "beta" not in rec.reference:
+        raise LogError(f"{rec.source}: no reference sideslip (a column 'beta' or a [reference.beta] map entry) "
+                       "to score the estimators against")
+    mu = rec.signals.get("mu")
+    out = {"case": case.name, "scenario": case.scenario, "condition": case.condition, "seed": case.seed,
+           "mu_min": float(np.min(mu)) if mu is not None else float("nan"), "rows": {}}
+    if traces:
+        out["traces"] = {"time": rec.time[::20].tolist(), "beta": (rec.reference["beta"][::20] * _DEG).tolist()}
+    grids = {}
+    for row in rows:
+        if row.estimator is None:
+            n = len(rec.time)
+            beta_hat, std, valid, at = np.zeros(n), np.full(n, np.nan), np.ones(n), rec
+        else:
+            estimator = make_estimator(row, s)
+            # stepped at its own sample period: equal to 1 ms steps with the inputs held (module docstring)
+            step = max(round(estimator.Ts / 1e-3) * 1e-3, 1e-3)
+            at = grids.setdefault(step, rec if step == 1e-3 else rec.on_grid(step))
+            res = replay(estimator, at)
+            beta_hat, std, valid = res["beta_hat"], res["beta_hat_std"], res["valid"]
+        out["rows"][row.label] = row_metrics(at, beta_hat, std, valid)
+        out["rows"][row.label]["restarts"] = 0 if row.estimator is None else estimator.restarts
+        if traces:
+            every = max(1, int(round(0.02 / float(at.time[1] - at.time[0]))))
+            out["traces"][row.label] = {"time": at.time[::every].tolist(),
+                                        "beta_hat": np.where(np.asarray(valid)[::every] > 0.5,
+                                                             np.asarray(beta_hat)[::every] * _DEG, np.nan).tolist()}
+    out["wall_s"] = time.perf_counter() - t0
+    return out
+
+
+def _scenario_job(job) -> list[dict]:
+    """The cases of one scenario (one worker simulates its truth once per tire model)."""
+    case_list, rows = job
+    return [run_case(c, rows, traces=c.seed == 0) for c in case_list]
+
+
+def select_rows(names=None) -> tuple:
+    """The rows whose label or estimator is one of ``names`` (all rows for None), predict-zero always
+    (every score is relative to it)."""
+    if not names:
+        return ROWS
+    known = {r.label for r in ROWS} | {r.estimator for r in ROWS if r.estimator}
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ValueError(f"unknown estimator {unknown[0]!r}; rows: {', '.join(r.label for r in ROWS)}")
+    return tuple(r for r in ROWS if r.estimator is None or r.label in names or r.estimator in names)
+
+
+def run_benchmark(case_list, rows=ROWS, workers: int = 2, scheduler=None, progress: bool = True) -> list[dict]:
+    """Run cases in parallel on :mod:`sideslip.studies.jobs`, one job per scenario; results in the
+    cases' order, with traces kept for seed 0."""
+    by_scenario: dict[str, list] = {}
+    for c in case_list:
+        by_scenario.setdefault(c.scenario, []).append(c)
+    done = {}
+    jobs = [(group, tuple(rows)) for group in by_scenario.values()]
+    for group in map_ordered(_scenario_job, jobs, workers, scheduler, progress, "scenarios"):
+        done.update({r["case"]: r for r in group})
+    return [done[c.name] for c in case_list]

@@ -1,0 +1,116 @@
+"""The estimator benchmark: its conditions, its metrics on constructed estimates, and a tiny grid run
+end to end (cases in a process, the leaderboard, JSON, heat map and error plots)."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from sideslip.recording import Recording
+from sideslip.scenarios import BENCHMARK_TEST, BENCHMARK_TRAINING
+from sideslip.studies import benchmark as bm
+from sideslip.studies.leaderboard import summarise, write_report
+from sideslip.vehicles import load_vehicle
+
+DEG = math.pi / 180.0
+
+
+def test_training_and_test_sets_are_disjoint_in_maneuver_speed_vehicle_and_friction():
+    train = {(s.maneuver, s.vehicle, s.road_mu) for s in BENCHMARK_TRAINING}
+    test = {(s.maneuver, s.vehicle, s.road_mu) for s in BENCHMARK_TEST}
+    assert not train & test
+    assert not {s.name for s in BENCHMARK_TRAINING} & {s.name for s in BENCHMARK_TEST}
+    assert len(bm.cases(seeds=5)) == len(BENCHMARK_TEST) * len(bm.CONDITIONS) * 5
+    with pytest.raises(ValueError, match="unknown condition"):
+        bm.cases(conditions=("rain",))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_conditions_draw_what_the_protocol_says(seed):
+    case = bm.Case("bench_dlc_asm_80kmh", "sensors+mismatch", seed)
+    e = bm.sensor_errors(case)
+    assert abs(e["yaw_rate_bias"]) <= 0.6 * DEG and e["yaw_rate_bias_drift"] > 0
+    assert abs(e["ax_bias"]) <= 0.25 and abs(e["ay_bias"]) <= 0.25
+    assert (e["gps_rate"], e["gps_delay"]) == (10.0, 0.1) and 0.05 <= e["gps_vel_sigma"] <= 0.1
+    assert e["steer_bias"] != 0.0
+    assert bm.sensor_errors(case) == e                         # the seed draws it, nothing else
+    v = load_vehicle("kim2016_asm")
+    m = bm.vehicle_mismatch(v, case)
+    k = m.C_f_nominal / v.C_f_nominal
+    assert 0.63 <= k <= 0.77 or 1.17 <= k <= 1.43               # -30 % or +30 %, +-10 % per axle
+    assert abs(m.m / v.m - 1) <= 0.1 and abs(m.I_zz / v.I_zz - 1) <= 0.15 and abs(m.l_f - v.l_f) <= 0.05
+    s = bm.setup(case)
+    assert s.plant["tire_model"] == 1 and s.estimator_vehicle == m and not s.calibrated_field
+    assert bm.setup(bm.Case("bench_dlc_asm_80kmh", "nominal", seed)).estimator_vehicle == v
+
+
+def _recording(beta, t=None):
+    t = np.arange(len(beta)) * 0.01 if t is None else t
+    n = len(t)
+    return Recording(t, {"mu": np.ones(n)}, {"beta": np.asarray(beta), "vx": np.full(n, 10.0), "vy": np.zeros(n)})
+
+
+def test_row_metrics_on_a_constructed_estimate():
+    beta = np.full(1000, 2.0 * DEG)
+    valid = np.ones(1000)
+    valid[:100] = 0.0                                         # a 1 s start-up
+    est = beta + 0.5 * DEG * np.where(np.arange(1000) % 2, 1.0, -1.0)   # +-0.5 deg
+    std = np.full(1000, 0.5 * DEG)
+    m = bm.row_metrics(_recording(beta), est, std, valid)
+    assert m["rms"] == pytest.approx(0.5) and m["max"] == pytest.approx(0.5)
+    assert m["zero_rms"] == pytest.approx(2.0) and m["rms_valid"] == pytest.approx(0.5)
+    assert m["valid"] == pytest.approx(0.9) and m["time_to_valid"] == pytest.approx(1.0)
+    assert m["std_ratio"] == pytest.approx(1.0) and m["nees"] == pytest.approx(1.0)
+    assert m["coverage95"] == 1.0 and m["off_while_valid"] == 0.0
+    # 0.7 s valid and 4 deg off: the validity target's measure; an estimate that is never valid still counts
+    off = est.copy()
+    off[500:570] += 4.0 * DEG
+    assert bm.row_metrics(_recording(beta), off, std, valid)["off_while_valid"] == pytest.approx(0.7)
+    never = bm.row_metrics(_recording(beta), np.zeros(1000), std, np.zeros(1000))
+    assert never["valid"] == 0.0 and never["rms"] == pytest.approx(2.0) and math.isnan(never["rms_valid"])
+
+
+def test_sideslip_errors_are_wrapped():
+    beta = np.full(10, math.pi - 0.01)
+    m = bm.row_metrics(_recording(beta), np.full(10, -math.pi + 0.01), np.full(10, 0.02), np.ones(10))
+    assert m["rms"] == pytest.approx(math.degrees(0.02))
+
+
+ROWS = tuple(r for r in bm.ROWS if r.label in ("predict-zero", "LinearBicycleObserver", "Yoon2014DualKF/hardened",
+                                               "Nguyen2012DACMRKF/published"))
+
+
+def test_a_tiny_grid_end_to_end(tmp_path):
+    cases = bm.cases(["bench_jturn_coms_ice"], ("nominal", "sensors+mismatch"), seeds=2)
+    results = bm.run_benchmark(cases, ROWS, workers=2, progress=False)
+    assert [r["case"] for r in results] == [c.name for c in cases]
+    for r in results:
+        assert set(r["rows"]) == {row.label for row in ROWS}
+        zero = r["rows"]["predict-zero"]
+        assert zero["rms"] == pytest.approx(zero["zero_rms"]) and zero["valid"] == 1.0
+        for label, m in r["rows"].items():
+            assert math.isfinite(m["rms"]) and m["restarts"] == 0, label
+        assert ("traces" in r) == (r["seed"] == 0)
+    # the sensors and the tires differ between the conditions, the truth not between seeds of one
+    nominal = [r for r in results if r["condition"] == "nominal"]
+    assert nominal[0]["rows"]["predict-zero"]["rms"] == nominal[1]["rows"]["predict-zero"]["rms"]
+    summary = write_report(results, tmp_path, meta={"seeds": 2})
+    assert set(summary) == {"nominal", "sensors+mismatch"}
+    row = summary["sensors+mismatch"]["rows"]["Yoon2014DualKF/hardened"]
+    per = row["per_scenario"]["bench_jturn_coms_ice"]
+    assert per["seeds"] == 2 and per["rms_min"] <= per["rms"] <= per["rms_max"]
+    assert row["cases_beta_1deg"] == 1 and row["beats_zero"] == 1      # 5 deg of sideslip on ice: beaten
+    text = (tmp_path / "leaderboard.md").read_text()
+    assert "## sensors+mismatch" in text and "| Yoon2014DualKF/hardened |" in text
+    data = json.loads((tmp_path / "benchmark.json").read_text())
+    assert len(data["cases"]) == 4 and data["meta"] == {"seeds": 2}
+    assert (tmp_path / "heatmap.png").stat().st_size > 10_000
+    assert (tmp_path / "errors_jturn_coms_ice.png").stat().st_size > 10_000
+    assert set(data["summary"]) == set(summarise(results))
+
+
+def test_select_rows_keeps_predict_zero_and_names_unknown_rows():
+    labels = [r.label for r in bm.select_rows(["Yoon2014DualKF"])]
+    assert labels == ["predict-zero", "Yoon2014DualKF/published", "Yoon2014DualKF/hardened"]
+    with pytest.raises(ValueError, match="unknown estimator 'Foo'"):
+        bm.select_rows(["Foo"])
