@@ -400,6 +400,10 @@ BENCHMARK_TRAINING = (
     _bench("bench_train_banked_circle_suv", "Training: 60 m circle to the left at 14 m/s on a 5 deg banked road, "
            "SUV, mu 1.0", "pi2011_suv", _spec("circle", v0=14.0, v=14.0, radius=60.0, lead_in=40.0, duration=60.0),
            road_bank=f"{5 * _DEG:.10g}"),
+    _bench("bench_train_changing_mu_suv", "Training: 0.25 Hz sine steer at 16 m/s while the friction drops from "
+           "1.0 to 0.35 and returns, SUV", "pi2011_suv",
+           _spec("sine_steer", v0=16.0, v=16.0, amplitude=1.2, frequency=0.25, cycles=6.0, t_start=3.0,
+                 duration=30.0), road_mu="0:1.0, 8:1.0, 8.5:0.35, 19:0.35, 19.5:1.0"),
 )
 """Scenarios the hardened estimators were tuned on."""
 
