@@ -7,7 +7,7 @@ The layers, each importing only those above it:
   signal catalogue), :mod:`~sideslip.units`, :mod:`~sideslip.constants`, :mod:`~sideslip.params`,
   :mod:`~sideslip.model`, :mod:`~sideslip.vehicles`, :mod:`~sideslip.bicycle`,
   :mod:`~sideslip.geomagnetic`, :mod:`~sideslip.plant`, :mod:`~sideslip.estimators`,
-  :mod:`~sideslip.control` and :mod:`~sideslip.scenarios`;
+  :mod:`~sideslip.control`, :mod:`~sideslip.scenarios` and :mod:`~sideslip.recording` (recorded drives);
 * :mod:`sideslip.fmi` - the FMU toolkit: the FMU catalogue, the slave base class, the builder;
 * :mod:`sideslip.cosim` - co-simulation: assembly and wiring, the fmpy and libcosim masters, SSP;
 * :mod:`sideslip.studies` - the job runner, the paper tables, the control evaluation, sweeps,

@@ -5,5 +5,6 @@
 * :mod:`~sideslip.cosim.master` - the fmpy master (Gauss-Seidel or Jacobi, fixed step);
 * :mod:`~sideslip.cosim.libcosim_master` - the same loop on DNV's libcosim;
 * :mod:`~sideslip.cosim.ssp` - SSP 1.0 packages of a loop: write and read;
+* :mod:`~sideslip.cosim.replay` - estimator FMUs driven by a recorded drive instead of a loop;
 * :mod:`~sideslip.cosim.results` - the recorded results every master returns.
 """

@@ -2,7 +2,9 @@
 
 Every estimator is a :class:`~sideslip.estimators.base.Estimator`: construct it with its
 config (or the defaults), call ``step(h, *inputs)`` with the inputs named by ``input_names``
-and read ``outputs()`` / ``output_dict()``.
+and read ``outputs()`` / ``output_dict()``.  Each paper's method has a ``profile`` parameter:
+hardened (the default) or as published; what the hardened profiles share is in
+:mod:`~sideslip.estimators.hardening` and :mod:`~sideslip.estimators.delay` (GPS latency).
 """
 from .base import Estimator, EstimatorConfig
 from .baselines import BicycleObserverConfig, LinearBicycleObserver, OpenLoopConfig, OpenLoopKinematic
