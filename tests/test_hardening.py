@@ -175,20 +175,19 @@ def _constructed_drive(delay: float, turning: bool, ts: float = 0.01, duration: 
     return t, r, beta, np.r_[np.full(lag, course[0]), course[:-lag]] if lag else course
 
 
+def _feed(identifier, delay: float, turning: bool):
+    """A constructed drive into a CourseDelay or GpsLatency: every sample, a fix every 0.1 s."""
+    t, r, beta, course = _constructed_drive(delay, turning)
+    for k in range(len(t)):
+        identifier.push(r[k], beta[k])
+        if k % 10 == 0:
+            identifier.add_fix(course[k], r[k])
+    return identifier
+
+
 def test_course_delay_is_identified_from_yaw_rate_changes_and_not_from_a_steady_turn():
-    t, r, beta, course = _constructed_drive(0.15, turning=True)
-    cd = CourseDelay(0.01, 0.5)
-    for k in range(len(t)):
-        cd.push(r[k], beta[k])
-        if k % 10 == 0:
-            cd.add_fix(course[k], r[k])
-    assert cd.estimate() == pytest.approx(0.15, abs=0.01)
-    t, r, beta, course = _constructed_drive(0.15, turning=False)
-    steady = CourseDelay(0.01, 0.5)
-    for k in range(len(t)):
-        steady.push(r[k], beta[k])
-        if k % 10 == 0:
-            steady.add_fix(course[k], r[k])
+    assert _feed(CourseDelay(0.01, 0.5), 0.15, turning=True).estimate() == pytest.approx(0.15, abs=0.01)
+    steady = _feed(CourseDelay(0.01, 0.5), 0.15, turning=False)
     assert steady.fixes > 100 and steady.estimate() is None      # no information: the prior stays
 
 
@@ -196,9 +195,5 @@ def test_gps_latency_prior_until_identified_and_its_course_noise():
     lat = GpsLatency(0.01, 0.1, 0.1)
     assert (lat.value, lat.std, lat.lag(0.01)) == (0.1, 0.1, 10)
     assert lat.course_variance(0.4) == pytest.approx((0.4 * 0.1) ** 2)
-    t, r, beta, course = _constructed_drive(0.2, turning=True)
-    for k in range(len(t)):
-        lat.push(r[k], beta[k])
-        if k % 10 == 0:
-            lat.add_fix(course[k], r[k])
+    _feed(lat, 0.2, turning=True)
     assert lat.value == pytest.approx(0.2, abs=0.01) and lat.std == IDENTIFIED_STD

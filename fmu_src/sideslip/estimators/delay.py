@@ -27,6 +27,17 @@ IDENTIFIED_STD = 0.01
 """[s] uncertainty of a delay identified by :class:`CourseDelay` (the spread over the training drives)."""
 
 
+def _refined_minimum(resid: np.ndarray, j: int) -> float:
+    """The minimum of a sampled curve near its smallest sample ``j``, in samples (a parabola through
+    ``j - 1, j, j + 1``)."""
+    if 0 < j < len(resid) - 1:
+        a, b, c = resid[j - 1], resid[j], resid[j + 1]
+        den = a - 2.0 * b + c
+        if den > 0:
+            return j + 0.5 * (a - c) / den
+    return float(j)
+
+
 class DelayIdentifier:
     """GPS delay from straight accelerations: ``v_gps(t) = k v_wheel(t - D)``, least squares in ``k`` per
     candidate ``D`` on a grid of the sample period, accumulated over all qualifying fixes.
@@ -70,13 +81,7 @@ class DelayIdentifier:
         if self.fixes < min_fixes or self.v_hi - self.v_lo < min_speed_change:
             return None
         resid = self.syy - self.sxy ** 2 / np.maximum(self.sxx, 1e-12)
-        j = int(np.argmin(resid))
-        frac = 0.0
-        if 0 < j < self.n - 1:
-            a, b, c = resid[j - 1], resid[j], resid[j + 1]
-            den = a - 2.0 * b + c
-            frac = 0.5 * (a - c) / den if den > 0 else 0.0
-        return (j + frac) * self.ts
+        return _refined_minimum(resid, int(np.argmin(resid))) * self.ts
 
 
 class CourseDelay:
@@ -165,12 +170,7 @@ class CourseDelay:
         side = min(resid[max(j - k, 0)] if j >= k else np.inf, resid[min(j + k, self.n - 1)] if j + k < self.n else np.inf)
         if not side >= sharpness * max(resid[j], 1e-12):
             return None
-        frac = 0.0
-        if 0 < j < self.n - 1:
-            a, b, c = resid[j - 1], resid[j], resid[j + 1]
-            den = a - 2.0 * b + c
-            frac = 0.5 * (a - c) / den if den > 0 else 0.0
-        return (j + frac) * self.ts
+        return _refined_minimum(resid, j) * self.ts
 
 
 class DelayLine:

@@ -46,6 +46,8 @@ class ProfiledConfig(EstimatorConfig):
                                  gt=0, le=1.0)
     valid_hold: float = param(1.0, "Time", "Hardened: how long the estimate must have been valid without a break "
                               "before valid is reported (a filter needs time to re-converge)", ge=0, le=60)
+    nis_limit: float = param(25.0, "Dimensionless", "Hardened: innovation consistency (NIS per degree of freedom over "
+                             "the method's window) above which the estimate is not valid", gt=1, le=1e6)
 
 
 @dataclass(frozen=True)

@@ -127,8 +127,6 @@ class Kim2016Config(LinearTireConfig):
     q_bias: float = param(1e-10, "AngularVelocityVariance", "Hardened: random-walk variance of the gyro offset per "
                           "sample", gt=0, le=1)
     bias_std0: float = param(0.012, "AngularVelocity", "Hardened: initial uncertainty of the gyro offset", gt=0, le=1)
-    nis_limit: float = param(25.0, "Dimensionless", "Hardened: innovation consistency (NIS / dof over 1 s) above "
-                             "which the estimate is not valid", gt=1, le=1e6)
     residual_valid: float = param(0.03, "Angle", "Hardened: steering residual above which the linear model no longer "
                                   "explains the car (the estimate is not valid)", gt=0, le=1)
 

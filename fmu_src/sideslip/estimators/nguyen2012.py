@@ -144,8 +144,6 @@ class Nguyen2012Config(LinearTireConfig, GpsLatencyConfig):
                                       "sigma_v / v", ge=0, le=5)
     course_speed: float = param(3.0, "Velocity", "Hardened: speed below which the course is not used", gt=0, le=50)
     gps_coast: float = param(10.0, "Time", "Hardened: GPS outage after which the estimate is not valid", gt=0, le=600)
-    nis_limit: float = param(25.0, "Dimensionless", "Hardened: innovation consistency (NIS / dof over 1 s) above "
-                             "which the estimate is not valid", gt=1, le=1e6)
     yaw_acc_std: float = param(2.0, "AngularAcceleration", "Hardened: yaw acceleration the kinematic yaw-rate "
                                "prediction leaves open (process noise, std)", gt=0, le=100)
 

@@ -288,8 +288,6 @@ class Park2018Config(LinearTireConfig):
     gps_delay: float = param(0.0, "Time", "Hardened: GPS delay used until one is identified", ge=0, le=0.5)
     identify_delay: bool = param(True, "Dimensionless", "Hardened: identify the GPS delay while turning")
     gps_coast: float = param(10.0, "Time", "Hardened: GPS outage after which the estimate is not valid", gt=0, le=600)
-    nis_limit: float = param(25.0, "Dimensionless", "Hardened: GPS innovation consistency (NIS / dof over 10 fixes) "
-                             "above which the estimate is not valid", gt=1, le=1e6)
 
 
 # ------------------------------------------------------------------------------ the observer

@@ -228,7 +228,7 @@ class Pi2011FuzzyEKF(ProfiledEstimator):
         if self.hardened:
             self._Q = np.diag([cfg.q_beta_hardened, cfg.q_force, cfg.q_force])
             self._R = np.diag([cfg.r_force_hardened, cfg.r_force_hardened, cfg.r_ay_hardened])
-            self._nis = InnovationMonitor(100)
+            self._nis = InnovationMonitor(max(1, int(round(1.0 / self.Ts))), cfg.nis_limit)
             self._trust = ModelTrust(v, self.Ts, cfg)
         else:
             self._Q = np.diag([cfg.q_beta, cfg.q_force, cfg.q_force])

@@ -186,8 +186,6 @@ class Yoon2014Config(ProfiledConfig, GpsLatencyConfig):
     course_speed: float = param(5.0, "Velocity", "Hardened: speed below which the course is not used", gt=0, le=50)
     sigma_roll: float = param(0.01, "Angle", "Hardened: error of the roll model's roll angle", gt=0, le=1)
     gps_coast: float = param(10.0, "Time", "Hardened: GPS outage after which the estimate is not valid", gt=0, le=600)
-    nis_limit: float = param(25.0, "Dimensionless", "Hardened: GPS innovation consistency (NIS / dof over 10 fixes) "
-                             "above which the estimate is not valid", gt=1, le=1e6)
 
 
 # ------------------------------------------------------------------------------ the estimator
