@@ -1,8 +1,5 @@
 """FMU LinearBicycleObserver: the wrapper of its entry in :mod:`sideslip.fmi.catalogue`."""
-from sideslip.fmi.slave import SideslipSlave, keep_module_dict_alive
+from sideslip.fmi.slave import fmu_class, keep_module_dict_alive
 
 keep_module_dict_alive(globals())  # see sideslip.fmi.slave.keep_module_dict_alive
-
-
-class LinearBicycleObserver(SideslipSlave):
-    """Model, configuration, role and description come from the catalogue entry of this name."""
+LinearBicycleObserver = fmu_class("LinearBicycleObserver", __name__)  # see sideslip.fmi.slave.fmu_class

@@ -1,8 +1,5 @@
 """FMU Yoon2014DualKF: the wrapper of its entry in :mod:`sideslip.fmi.catalogue`."""
-from sideslip.fmi.slave import SideslipSlave, keep_module_dict_alive
+from sideslip.fmi.slave import fmu_class, keep_module_dict_alive
 
 keep_module_dict_alive(globals())  # see sideslip.fmi.slave.keep_module_dict_alive
-
-
-class Yoon2014DualKF(SideslipSlave):
-    """Model, configuration, role and description come from the catalogue entry of this name."""
+Yoon2014DualKF = fmu_class("Yoon2014DualKF", __name__)  # see sideslip.fmi.slave.fmu_class

@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from sideslip.fmi.build import build_fmus
+from sideslip.fmi.catalogue import HELD_OUTPUT
 from sideslip.fmi.variables import fmi_value
 
 
@@ -31,9 +32,11 @@ class FmuHarness:
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.unzip = extract(str(path))
         self.messages: list[tuple[int, str]] = []
+        self.categories: list[str] = []
 
         def logger(env, name, status, category, message):
             self.messages.append((status, message.decode() if message else ""))
+            self.categories.append(category.decode() if category else "")
 
         cb = fmi2CallbackFunctions()
         cb.logger = fmi2CallbackLoggerTYPE(logger)
@@ -59,7 +62,8 @@ class FmuHarness:
         return out
 
     def outputs(self):
-        names = [v.name for v in self.md.modelVariables if v.causality == "output"]
+        """The model's outputs (every output but the toolkit's ``inputs_held``), in order."""
+        names = [v.name for v in self.md.modelVariables if v.causality == "output" and v.name != HELD_OUTPUT]
         return self.get(*names)
 
     def init(self, **params):
@@ -75,8 +79,12 @@ class FmuHarness:
         return status
 
     def close(self):
+        from fmpy.fmi1 import FMICallException
+
         try:
             self.fmu.terminate()
+        except FMICallException:            # not initialised: fmi2Terminate is refused in that state
+            pass
         finally:
             self.fmu.fmi2FreeInstance(self.fmu.component)
 

@@ -1,5 +1,6 @@
 """The built FMUs through fmpy: modelDescription quality, FMU = library, state, reset, bad inputs/params."""
 import math
+import re
 import subprocess
 import sys
 import textwrap
@@ -73,7 +74,9 @@ def test_shim_is_installed(fmu_dir):
 
     names = zipfile.ZipFile(fmu_dir / "VehiclePlant.fmu").namelist()
     assert "binaries/linux64/VehiclePlant.so" in names and "binaries/linux64/pythonfmu_export.so" in names
-    assert "resources/sideslip/plant/vehicle.py" in names and "resources/sideslip/vehicles/pi2011_suv.toml" in names
+    (package,) = {n.split("/")[1] for n in names if re.match(r"resources/sideslip_[0-9a-f]{12}/", n)}
+    assert f"resources/{package}/plant/vehicle.py" in names and f"resources/{package}/vehicles/pi2011_suv.toml" in names
+    assert f"resources/sideslip_plant_fmu_{package[-12:]}.py" in names          # the wrapper of the same build
     assert not [n for n in names if "__pycache__" in n]
 
 
@@ -182,27 +185,37 @@ def test_two_instances_are_independent(harness):
 
 # ---------------------------------------------------------------- bad inputs and parameters
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
-def test_nan_or_inf_input_gives_no_nan_output_and_a_warning(harness, bad):
+def test_nan_or_inf_input_is_held_with_fmi2ok_a_warning_per_episode_and_a_count(harness, bad):
+    """OMSimulator and fmusim stop on fmi2Warning: a held input is fmi2OK, a logStatusWarning message
+    at the start of each bad episode (at most one per second per input, the rest counted) and the
+    output inputs_held."""
     fmu = harness("VehiclePlant")
     fmu.init(vx0=15.0)
     for k in range(10):
         fmu.step(delta_f=0.02)
-    status = fmu.step(delta_f=bad, mu=bad)
-    assert status == 1                                          # fmi2Warning, no crash
-    outs = fmu.outputs()
-    assert all(math.isfinite(v) for v in outs)
-    assert any("delta_f" in m and "holding the last valid value" in m for s, m in fmu.messages if s == 1)
-    for k in range(50):
-        assert fmu.step(delta_f=bad) in (0, 1)
+    assert fmu.step(delta_f=bad, mu=bad) == 0                   # fmi2OK, no crash
+    assert all(math.isfinite(v) for v in fmu.outputs()) and fmu.get("inputs_held") == [2.0]
+    held = [(s, c, m) for (s, m), c in zip(fmu.messages, fmu.categories) if "'delta_f'" in m]
+    assert held == [(1, "logStatusWarning", held[0][2])] and "holding the last valid value 0.02" in held[0][2]
+    for k in range(50):                                         # the same episode: not logged again
+        assert fmu.step(delta_f=bad) == 0
     assert all(math.isfinite(v) for v in fmu.outputs())
-    assert sum(1 for s, m in fmu.messages if "delta_f" in m) == 1   # reported once
+    fmu.step(delta_f=0.01, mu=1.0)                              # the episodes end
+    assert fmu.get("inputs_held") == [0.0]
+    fmu.step(delta_f=bad)                                       # a new one 0.05 s later: counted, not logged
+    for k in range(1000):
+        fmu.step(delta_f=0.01)
+    fmu.step(delta_f=bad)                                       # a third, 1 s later: logged with the count
+    delta = [m for s, m in fmu.messages if "'delta_f'" in m]
+    assert len(delta) == 2 and "(1 more episode since the last report)" in delta[1]
 
 
-def test_out_of_range_input_is_clamped_with_a_warning(harness):
+def test_out_of_range_input_is_clamped_with_fmi2ok_and_a_warning(harness):
     fmu = harness("VehiclePlant")
     fmu.init(vx0=15.0)
-    assert fmu.step(mu=5.0) == 1
-    assert any("'mu' = 5 outside [0.05, 1.5]" in m for _, m in fmu.messages)
+    assert fmu.step(mu=5.0) == 0
+    assert any("'mu' = 5 outside [0.05, 1.5]" in m for s, m in fmu.messages if s == 1)
+    assert fmu.get("inputs_held") == [1.0]
 
 
 @pytest.mark.parametrize("name,params,param_name,allowed", [
@@ -232,10 +245,13 @@ def test_bad_parameter_gives_fmi2error_naming_it(harness, name, params, param_na
 def test_setting_an_output_or_fixed_parameter_late_is_refused(harness):
     fmu = harness("VehiclePlant")
     fmu.init()
-    fmu.fmu.setReal([fmu.vars["vx0"].valueReference], [30.0])    # fixed parameter after init
-    fmu.fmu.setReal([fmu.vars["vx"].valueReference], [30.0])     # an output
+    for name in ("vx0", "vx"):                                  # a fixed parameter after init, an output
+        with pytest.raises(FMICallException) as e:
+            fmu.fmu.setReal([fmu.vars[name].valueReference], [30.0])
+        assert e.value.status == 3                              # fmi2Error
     assert fmu.get("vx0", "vx") == [0.0, 0.0]
-    assert len([m for s, m in fmu.messages if s == 1]) == 2
+    errors = [m for s, m in fmu.messages if s == 3]
+    assert "fixed parameter 'vx0' cannot change" in errors[0] and "'vx' is an output" in errors[1]
 
 
 def test_port_fast_path_and_python_path_agree(harness):
@@ -263,14 +279,15 @@ def test_fmu_runs_from_its_own_resources_in_a_fresh_process(fmu_dir, tmp_path):
         res = simulate_fmu({str(fmu_dir / 'VehiclePlant.fmu')!r}, stop_time=0.5, output_interval=0.1,
                            start_values={{"vx0": 12.0, "vehicle": "park2018_sonata"}},
                            input=None, fmi_call_logger=None)
-        import sideslip
-        assert "fmu_src" not in sideslip.__file__, sideslip.__file__
-        print("SIDESLIP_FROM", sideslip.__file__)
+        assert "sideslip" not in sys.modules
+        (pkg,) = [m for name, m in sys.modules.items() if name.startswith("sideslip_") and "." not in name
+                  and not name.endswith("_fmu") and not name.count("_fmu_")]
+        print("SIDESLIP_FROM", pkg.__file__)
         print("VX", res["vx"][-1])
     """)
     proc = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    assert "/resources/sideslip/__init__.py" in proc.stdout
+    assert re.search(r"/resources/sideslip_[0-9a-f]{12}/__init__.py", proc.stdout)
     vx = float(proc.stdout.split("VX")[1])
     assert 11.0 < vx < 12.0
 

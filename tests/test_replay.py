@@ -123,7 +123,7 @@ def test_replaying_a_log_of_the_closed_loop_gives_the_loops_estimates(loop_log, 
     for name in res.names[1:]:
         np.testing.assert_array_equal(res[name], run.results[name].astype(float), err_msg=name)
         compared += 1
-    assert compared == 29                 # every output of both FMUs
+    assert compared == 31                 # every output of both FMUs, inputs_held included
 
 
 def test_cli_replay_writes_estimates_metrics_and_plot(loop_log, fmu_dir, tmp_path, capsys):

@@ -23,6 +23,10 @@ class Model:
     input_names: tuple = ()
     output_names: tuple = ()
     _out: tuple | list = ()
+    held_inputs: int = 0
+    """How many inputs of the current step are held or clamped values (set by the FMU toolkit, which
+    replaces a non-finite input by its last valid value and clamps one outside its range); a model
+    that reports validity reports it false while this is not 0."""
 
     def _reset_clock(self) -> None:
         self._clock = StepClock()

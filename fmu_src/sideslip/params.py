@@ -137,15 +137,11 @@ def _check_value(name: str, value: Any, info: ParamInfo, typ: type) -> None:
         if value not in info.choices:
             raise ParameterError(name, value, describe_range(info))
         return
-    if not math.isfinite(value) and not (math.isinf(value) and
-                                         ((value > 0 and info.le is None and info.lt is None) or
-                                          (value < 0 and info.ge is None and info.gt is None))):
-        raise ParameterError(name, value, describe_range(info))
+    if not math.isfinite(value):              # a physical value is finite, whatever its bounds
+        raise ParameterError(name, value, f"a finite number, {describe_range(info)}")
     if ((info.ge is not None and not value >= info.ge) or (info.gt is not None and not value > info.gt)
             or (info.le is not None and not value <= info.le)
             or (info.lt is not None and not value < info.lt)):
-        raise ParameterError(name, value, describe_range(info))
-    if math.isnan(value):
         raise ParameterError(name, value, describe_range(info))
 
 

@@ -145,6 +145,8 @@ _ENTRIES = [
     _real("vy_hat", "Velocity", "Estimated lateral velocity", -100.0, 100.0),
     _real("yaw_rate_hat", "AngularVelocity", "Estimated yaw rate", -10.0, 10.0),
     _bool("valid", "True when the estimate is usable (initialised, inputs finite, vx above threshold)"),
+    _real("inputs_held", "Dimensionless", "Number of inputs held (not finite) or clamped (outside their range) in the "
+          "last step; every FMU outputs it", 0.0, 1000.0),
     # --- estimator extras ------------------------------------------------------------
     _real("yaw_hat", "Angle", "Estimated yaw (heading) angle, counter-clockwise from east", -_PI, _PI),
     _real("Cf_hat", "CorneringStiffness", "Estimated front-axle cornering stiffness", 0.0, 1.0e7),

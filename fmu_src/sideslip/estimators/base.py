@@ -5,7 +5,9 @@ its filter every ``Ts`` (samples at ``k Ts``, several per step if ``Ts`` is shor
 step).  Between samples it keeps the latest inputs; event inputs (``gps_fresh``) are latched
 so that a GPS fix arriving between two samples is not missed.  A sample whose inputs are not
 finite is skipped (the estimate is held and ``valid`` goes false), so no NaN reaches the
-outputs even when the library class is used without the FMU toolkit.  A filter that fails
+outputs even when the library class is used without the FMU toolkit; inside an FMU, where the
+toolkit holds or clamps such inputs (:attr:`~sideslip.model.Model.held_inputs`), the filter runs
+on the held values and ``valid`` is false.  A filter that fails
 numerically (a singular innovation covariance, a non-finite estimate: a method driven far outside
 what it was designed for) is restarted from its initial state with ``valid`` false, and
 :attr:`Estimator.restarts` counts it: the host sees a held estimate, never an exception.
@@ -148,6 +150,8 @@ class Estimator(SampledModel):
             ok = math.isfinite(self.beta + self.beta_std + self.vx + self.vy + self.yaw_rate + sum(self._extras()))
         except (np.linalg.LinAlgError, ValueError, OverflowError, ZeroDivisionError):
             ok = False
+        if ok and self.held_inputs:            # running on held or clamped inputs: not trustworthy
+            self.valid = False
         if not ok:
             self._init_filter()                # sideslip back to its prior, speed and yaw rate held
             self.beta, self.vy, self.beta_std = 0.0, 0.0, RESTART_STD

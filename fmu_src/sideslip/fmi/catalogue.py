@@ -16,14 +16,23 @@ import importlib
 from dataclasses import dataclass
 from functools import cached_property
 
-__all__ = ["FmuSpec", "CATALOGUE", "ROLES", "fmu_spec", "fmu_names"]
+__all__ = ["FmuSpec", "CATALOGUE", "ROLES", "HELD_OUTPUT", "fmu_spec", "fmu_names"]
+
+HELD_OUTPUT = "inputs_held"
+"""The output every FMU adds after its model's: how many inputs were held or clamped in the last step."""
 
 ROLES = ("driver", "plant", "sensors", "estimator", "controller")
 """Roles in a closed loop, in the order the components run."""
 
 
+_ROOT = __name__.split(".")[0]
+"""This package's top-level name: ``sideslip``, or the per-build name it has inside an FMU."""
+
+
 def _resolve(ref: str):
     module, _, attr = ref.partition(":")
+    if module == "sideslip" or module.startswith("sideslip."):      # the entries name the package as installed
+        module = _ROOT + module[len("sideslip"):]
     return getattr(importlib.import_module(module), attr)
 
 
@@ -73,8 +82,8 @@ class FmuSpec:
 
     @property
     def outputs(self) -> tuple:
-        """Output port names, in value-reference order."""
-        return tuple(self.model_class.output_names)
+        """Output port names, in value-reference order: the model's, then :data:`HELD_OUTPUT`."""
+        return tuple(self.model_class.output_names) + (HELD_OUTPUT,)
 
     @property
     def library_module(self) -> str:

@@ -1,10 +1,9 @@
 """The FMU toolkit: a pythonfmu ``Fmi2Slave`` base that declares ports from the signal catalogue.
 
-An FMU wrapper is a class statement named like its entry in the FMU catalogue
+An FMU wrapper binds the slave class of its entry in the FMU catalogue
 (:mod:`sideslip.fmi.catalogue`)::
 
-    class VehiclePlant(SideslipSlave):
-        pass
+    VehiclePlant = fmu_class("VehiclePlant", __name__)
 
 The entry gives the library model class (``input_names``, ``output_names``, ``step(h, *u)``,
 ``outputs()``), its configuration dataclass of declared parameters, the role and the
@@ -23,22 +22,33 @@ description, and this base does the rest:
   status shim serves ``fmi2Get/SetReal/Boolean`` on ports straight from it, so the hot
   path never enters Python (parameters and everything else still go through pythonfmu);
 * inputs are checked at the start of every ``doStep``: non-finite values are replaced by
-  the last valid value and values outside the catalogue range are clamped, each reported
-  once at warning status; the model never sees NaN and no output is ever NaN;
-* state: get/set/serialise FMU state copies the whole library object (filter state,
-  buffers, RNG) and every variable value;
+  the last valid value and values outside the catalogue range are clamped; the start of every
+  bad episode of an input is logged at warning status in category ``logStatusWarning`` (at
+  most once per :data:`EPISODE_LOG_INTERVAL` of simulated time per input, the suppressed ones
+  counted in the next message), ``doStep`` still returns ``fmi2OK`` (hosts such as
+  OMSimulator and fmusim stop on fmi2Warning), the output ``inputs_held`` counts the inputs
+  held or clamped in the step and an estimator's ``valid`` is false; the model never sees NaN;
+* outputs: never NaN, and always within their declared ``min``/``max`` (a value outside is
+  clamped, logged like an input and, for an estimator, makes ``valid`` false);
+* lifecycle: the FMI 2.0 co-simulation states are enforced (a call in the wrong state, e.g.
+  ``doStep`` after ``fmi2Terminate``, is refused with fmi2Error), and a ``doStep`` whose
+  communication point is not the FMU's current time (a skipped or repeated interval) is refused
+  with fmi2Error and changes nothing;
+* state: get/set/serialise FMU state writes every variable value and the library object
+  (filter state, buffers, RNG) in the typed, checksummed format of :mod:`sideslip.fmi.state`
+  (never pickle); restoring rebuilds the model from the state's parameters and then its data,
+  and a state that is not valid is refused with fmi2Error naming why;
 * no Python exception ever reaches pythonfmu (it would turn it into fmi2Fatal and free
-  the instance): every entry point catches and logs.
+  the instance) and no traceback reaches the host's log: every entry point catches and logs
+  the message.
 """
 from __future__ import annotations
 
-import copy
+import base64
 import ctypes
 import functools
 import math
-import pickle
 import sys
-import traceback
 from operator import le
 from typing import Any
 from xml.etree.ElementTree import Element, SubElement
@@ -51,11 +61,19 @@ from .. import __version__
 from ..params import ParameterError, build, declared_fields, describe_range
 from ..signals import signal
 from ..units import QUANTITIES, UNITS
-from .catalogue import fmu_spec
+from . import state as fmu_state
+from .catalogue import HELD_OUTPUT, fmu_spec
 
-__all__ = ["SideslipSlave", "keep_module_dict_alive"]
+__all__ = ["SideslipSlave", "fmu_class", "keep_module_dict_alive", "import_bundle", "EPISODE_LOG_INTERVAL", "HELD_OUTPUT"]
+
+_ROOT = __name__.split(".")[0]
 
 _ERROR, _WARNING, _OK = Fmi2Status.error, Fmi2Status.warning, Fmi2Status.ok
+
+EPISODE_LOG_INTERVAL = 1.0
+"""[s] of simulated time: a port's bad episodes are logged at most once per interval."""
+
+_INSTANTIATED, _INITIALIZING, _STEPPING, _TERMINATED = "instantiated", "initialization mode", "step mode", "terminated"
 
 
 def keep_module_dict_alive(namespace: dict) -> None:
@@ -72,6 +90,41 @@ def keep_module_dict_alive(namespace: dict) -> None:
     ctypes.pythonapi.Py_IncRef(ctypes.py_object(namespace))
 
 
+_CLASSES: dict[str, type] = {}
+
+
+def fmu_class(name: str, module: str) -> type:
+    """The slave class of the catalogue entry ``name``, made once per process (for a wrapper module).
+
+    pythonfmu 0.7 runs the wrapper file again at every ``fmi2Instantiate`` and keeps a reference to
+    the class it finds: a class statement there would leave a new class behind per instance
+    (about 3 KB).  The wrapper binds this one class instead.
+    """
+    cls = _CLASSES.get(name)
+    if cls is None:
+        cls = _CLASSES[name] = type(name, (SideslipSlave,), {
+            "__module__": module, "__qualname__": name,
+            "__doc__": "Model, configuration, role and description come from the catalogue entry of this name."})
+    return cls
+
+
+def import_bundle() -> None:
+    """Import every module of this package now.
+
+    Inside an FMU the package is the build's own copy, renamed per build (``sideslip_<hash>``,
+    :mod:`sideslip.fmi.build`), so FMUs of different builds in one process each run their own code.
+    Hosts such as OMSimulator delete an FMU's unpacked folder once it is loaded: a module imported
+    later (an import inside a function) would no longer be found, so everything is imported while
+    the folder exists (the bundled vehicle files are read at import too).
+    """
+    import importlib
+    import pkgutil
+
+    root = sys.modules[_ROOT]
+    for info in pkgutil.walk_packages(root.__path__, _ROOT + "."):
+        importlib.import_module(info.name)
+
+
 def _leave_sys_path(resources) -> None:
     """Move the FMU's ``resources/`` folder from the front of ``sys.path`` to its end.
 
@@ -81,9 +134,8 @@ def _leave_sys_path(resources) -> None:
     subpackages load through their packages' ``__path__``, not ``sys.path``.
     """
     folder = str(resources) if resources else None
-    if folder and folder in sys.path:
-        sys.path.remove(folder)
-        sys.path.append(folder)
+    if folder and folder in sys.path:               # pythonfmu inserts it at every instantiation: keep one
+        sys.path[:] = [p for p in sys.path if p != folder] + [folder]
 
 
 def _host_call(function: str, default=None):
@@ -147,7 +199,7 @@ def _display_unit(quantity: str) -> str | None:
     return display[0][0] if display else None
 
 
-PORT_BUFFER_MAGIC = "sideslip-ports-v1"
+PORT_BUFFER_MAGIC = "sideslip-ports-v2"
 """Prefix of the ``_port_buffer`` string read by the status shim (keep in sync with the C file)."""
 
 
@@ -194,12 +246,15 @@ class SideslipSlave(Fmi2Slave):
         self._port_start: list = []      # start value per port
         self._in_lo: list[float] = []    # catalogue range of each input
         self._in_hi: list[float] = []
+        self._out_lo: list[float] = []   # declared range of each model output (Booleans unbounded)
+        self._out_hi: list[float] = []
         self._param_vr: dict[str, int] = {}
         self._warned: set = set()
         self.model = None
         self._failed: str | None = None
-        self._initialized = False
+        self._phase = _INSTANTIATED
         self._t0 = 0.0
+        self._t = 0.0                    # the FMU's time: the communication point the next doStep starts at
         buffer_var = String("_port_buffer", causality=Fmi2Causality.local, variability=Fmi2Variability.fixed,
                             initial=Fmi2Initial.calculated,
                             description="Internal: address and layout of the port buffer shared with the "
@@ -210,12 +265,38 @@ class SideslipSlave(Fmi2Slave):
         self._n_in = len(self._port_kind)
         for name in self.model_class.output_names:
             self._declare_port(name, Fmi2Causality.output)
+        self._n_out = len(self._port_kind) - self._n_in
+        self._declare_port(HELD_OUTPUT, Fmi2Causality.output)
         self._n_ports = len(self._port_kind)
         self._ports = (ctypes.c_double * self._n_ports)(*self._port_start)
         self._last_in = list(self._port_start[:self._n_in])
+        n_watch = self._n_in + self._n_out           # inputs, then model outputs: their bad episodes
+        self._bad = [False] * n_watch                # in a bad episode now
+        self._episodes = [0] * n_watch
+        self._reported = [-math.inf] * n_watch       # time of the last report
+        self._suppressed = [0] * n_watch             # episodes not reported since
+        self._n_bad = 0
+        self._valid_port = (self._n_in + self.model_class.output_names.index("valid")
+                            if "valid" in self.model_class.output_names else None)
         for f, info in declared_fields(self.config_class):
             if info.fmu:
                 self._declare_param(f.name, f.default, info)
+        renew = String("_renew", causality=Fmi2Causality.local, variability=Fmi2Variability.discrete,
+                       initial=Fmi2Initial.exact, start="",
+                       description="Internal: set by the FMU's native binary to make this instance new again "
+                                   "(fmi2Reset, reuse after fmi2FreeInstance; not for users)")
+        self._renew_vr = self._register(renew, "", "String")
+        self._init_kwargs = kwargs
+
+    def _renew(self) -> None:
+        """Make this object a new instance in place (what fmi2Reset asks for).  pythonfmu 0.7's own reset
+        leaves the old Python object behind (about 60 KB); the native binary asks for this instead, and
+        uses it to keep freed instances for the next fmi2Instantiate.  The log queue pythonfmu reads
+        stays the same list."""
+        queue = self.log_queue
+        self.__init__(**self._init_kwargs)
+        queue.clear()
+        self.log_queue = queue
 
     def _register(self, var, value, kind: str, getter=None, setter=None) -> int:
         vr = len(self._vals)
@@ -244,9 +325,13 @@ class SideslipSlave(Fmi2Slave):
             self._register(var, None, "Real", getter=lambda p=p: self._ports[p])
             self._port_kind.append("R")
             self._port_start.append(float(sig.start))
+        lo, hi = (sig.min, sig.max) if sig.kind == "Real" else (-math.inf, math.inf)
         if not is_out:
-            self._in_lo.append(sig.min if sig.kind == "Real" else -math.inf)
-            self._in_hi.append(sig.max if sig.kind == "Real" else math.inf)
+            self._in_lo.append(lo)
+            self._in_hi.append(hi)
+        elif name != HELD_OUTPUT:
+            self._out_lo.append(lo)
+            self._out_hi.append(hi)
 
     def _declare_param(self, name: str, default, info) -> None:
         variability = Fmi2Variability.tunable if info.tunable else Fmi2Variability.fixed
@@ -266,9 +351,10 @@ class SideslipSlave(Fmi2Slave):
         self._param_vr[name] = vr
 
     def _port_layout(self) -> str:
-        """``_port_buffer`` value: magic, address (hex), first port vr, n_in, n_ports, kinds."""
+        """``_port_buffer`` value: magic, address (hex), first port vr, n_in, n_ports, the ``_renew``
+        variable's vr, kinds."""
         return (f"{PORT_BUFFER_MAGIC}:{ctypes.addressof(self._ports):x}:1:{self._n_in}:{self._n_ports}:"
-                + "".join(self._port_kind))
+                f"{self._renew_vr}:" + "".join(self._port_kind))
 
     def to_xml(self, model_options=None):
         """modelDescription with unit/type definitions and output dependencies added."""
@@ -319,76 +405,164 @@ class SideslipSlave(Fmi2Slave):
         self._failed = msg
         self._log(msg, _ERROR)
 
+    def _refuse(self, call: str, allowed: str) -> bool:
+        """Log a call made in the wrong state (fmi2Error); returns False."""
+        self._log(f"{self.modelName}: {call} is not allowed in {self._phase} "
+                  f"(allowed in {allowed})", _ERROR)
+        return False
+
     # ------------------------------------------------------------------ lifecycle
     def setup_experiment(self, start_time: float = 0.0, stop_time=None, tolerance=None):
-        self._t0 = float(start_time)
+        if self._phase != _INSTANTIATED:
+            self._refuse("fmi2SetupExperiment", _INSTANTIATED)
+            return
+        self._t0 = self._t = float(start_time)
+
+    def enter_initialization_mode(self):
+        if self._phase != _INSTANTIATED:
+            self._refuse("fmi2EnterInitializationMode", _INSTANTIATED)
+            return
+        self._phase = _INITIALIZING
 
     def exit_initialization_mode(self):
+        if self._phase != _INITIALIZING:
+            self._refuse("fmi2ExitInitializationMode", _INITIALIZING)
+            return
+        self._phase = _STEPPING
         try:
-            values = {name: self._vals[vr] for name, vr in self._param_vr.items()}
-            config = build(self.config_class, values)
-            self.model = self.make_model(config)
-            self._write_outputs(self.model.outputs())
-            self._initialized = True
+            self.model = self._build_model()
+            self._write_outputs(self.model.outputs(), self._t)
             self._failed = None
         except ParameterError as exc:
-            self._fail(f"{self.modelName} '{self.instance_name}': {exc}")
+            self.model = None
+            self._fail(f"{self.modelName}: {exc}")
         except Exception as exc:  # noqa: BLE001 - any failure must become a logged error, not a raise
-            self._fail(f"{self.modelName} '{self.instance_name}': initialisation failed: {exc!r}\n"
-                       + traceback.format_exc(limit=4))
+            self.model = None
+            self._fail(f"{self.modelName}: initialisation failed: "
+                       f"{type(exc).__name__}: {exc}")
+
+    def _build_model(self):
+        """The library model of the current parameter values (validated; raises ParameterError)."""
+        values = {name: self._vals[vr] for name, vr in self._param_vr.items()}
+        return self.make_model(build(self.config_class, values))
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         model = self.model
+        if self._phase != _STEPPING:
+            return self._refuse("fmi2DoStep", _STEPPING)
         if model is None:
             self._log(self._failed or f"{self.modelName}: doStep called before initialisation", _ERROR)
             return False
+        if not (step_size > 0.0 and math.isfinite(step_size)):
+            self._log(f"{self.modelName}: communication step size {step_size!r} is not "
+                      "a positive finite number; step refused", _ERROR)
+            return False
+        t = self._t
+        if abs(current_time - t) > 1e-9 * max(step_size, abs(t)):
+            self._log(f"{self.modelName}: doStep from t={current_time:.9g} s, but the FMU is "
+                      f"at t={t:.9g} s (a skipped or repeated interval); step refused, nothing changed (restore an "
+                      "FMU state or reset to go back)", _ERROR)
+            return False
         try:
+            end = current_time + step_size
             u = self._ports[:self._n_in]
             # in range and finite (NaN compares false); the rare failure goes to _sanitize
             if not (all(map(le, self._in_lo, u)) and all(map(le, u, self._in_hi))):
-                u = self._sanitize(u)
+                u, held = self._sanitize(u, end)
+            else:
+                held = 0
+                if self._n_bad:
+                    self._end_episodes(0, self._n_in)
             self._last_in = u
+            model.held_inputs = held
             model.step(step_size, *u)
-            return self._write_outputs(model.outputs())
+            self._t = end
+            self._ports[self._n_ports - 1] = held
+            return self._write_outputs(model.outputs(), end)
         except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName} '{self.instance_name}': step at t={current_time:.6g} failed: {exc!r}\n"
-                      + traceback.format_exc(limit=4), _ERROR)
+            self._log(f"{self.modelName}: step at t={current_time:.6g} failed: "
+                      f"{type(exc).__name__}: {exc}", _ERROR)
             return False
 
-    def _sanitize(self, u: list) -> list:
-        """Inputs made safe: hold the last valid value on NaN/inf, clamp to the catalogue range."""
-        out = list(u)
+    def _episode(self, i: int, t: float, msg: str) -> None:
+        """Port ``i`` is bad in this step: log the start of a new episode (rate-limited)."""
+        if self._bad[i]:
+            return
+        self._bad[i] = True
+        self._n_bad += 1
+        self._episodes[i] += 1
+        if t - self._reported[i] >= EPISODE_LOG_INTERVAL:
+            more = self._suppressed[i]
+            self._log(f"{self.modelName}: t={t:.6g} s: {msg}"
+                      + (f" ({more} more episode{'s' if more > 1 else ''} since the last report)" if more else ""),
+                      _WARNING)
+            self._reported[i], self._suppressed[i] = t, 0
+        else:
+            self._suppressed[i] += 1
+
+    def _end_episodes(self, first: int, stop: int) -> None:
+        for i in range(first, stop):
+            if self._bad[i]:
+                self._bad[i] = False
+                self._n_bad -= 1
+
+    def _sanitize(self, u: list, t: float) -> tuple[list, int]:
+        """Inputs made safe (hold the last valid value on NaN/inf, clamp to the catalogue range) and how
+        many were changed."""
+        out, held = list(u), 0
         for i, x in enumerate(u):
             lo, hi = self._in_lo[i], self._in_hi[i]
             name = self.vars[i + 1].name
             if x - x != 0.0:
                 out[i] = self._last_in[i]
-                self._log_once(("nan", i), f"{self.modelName}: input '{name}' = {x!r}; holding the last valid "
-                               f"value {out[i]:g}")
+                self._episode(i, t, f"input '{name}' = {x!r}; holding the last valid value {out[i]:g}")
             elif not lo <= x <= hi:
                 out[i] = lo if x < lo else hi
-                self._log_once(("range", i), f"{self.modelName}: input '{name}' = {x:g} outside [{lo:g}, {hi:g}] "
-                               f"{QUANTITIES[self.vars[i + 1].quantity]}; clamped")
-        return out
+                self._episode(i, t, f"input '{name}' = {x:g} outside [{lo:g}, {hi:g}] "
+                              f"{QUANTITIES[self.vars[i + 1].quantity]}; clamped")
+            else:
+                if self._bad[i]:
+                    self._bad[i] = False
+                    self._n_bad -= 1
+                continue
+            held += 1
+        return out, held
 
-    def _write_outputs(self, values) -> bool:
-        """Store model outputs (floats, Booleans as 0.0/1.0); never store NaN or inf."""
-        total = sum(values)
-        if total - total == 0.0:                   # all finite (NaN/inf propagate through the sum)
-            self._ports[self._n_in:self._n_ports] = values
+    def _write_outputs(self, values, t: float) -> bool:
+        """Store model outputs (floats, Booleans as 0.0/1.0): never NaN or inf (the last value is held, an
+        error), never outside the declared range (clamped; an estimator's ``valid`` goes false)."""
+        n_in = self._n_in
+        if all(map(le, self._out_lo, values)) and all(map(le, values, self._out_hi)):
+            self._ports[n_in:n_in + self._n_out] = values
+            if self._n_bad:
+                self._end_episodes(n_in, n_in + self._n_out)
             return True
-        ports, ok = self._ports, True
-        for p, y in zip(range(self._n_in, self._n_ports), values):
-            if y - y == 0.0:
-                ports[p] = float(y)
-            else:                                  # hold the last value, never emit NaN/inf
+        ports, ok, clamped = self._ports, True, False
+        for k, y in enumerate(values):
+            p, lo, hi = n_in + k, self._out_lo[k], self._out_hi[k]
+            if y - y != 0.0:                       # hold the last value, never emit NaN/inf
                 ok = False
                 self._log_once(("nonfinite", p), f"{self.modelName}: output '{self.vars[p + 1].name}' became "
                                f"{y!r}; holding its last value", _ERROR)
+            elif not lo <= y <= hi:
+                ports[p] = lo if y < lo else hi
+                clamped = True
+                self._episode(p, t, f"output '{self.vars[p + 1].name}' = {y:g} outside its declared "
+                              f"[{lo:g}, {hi:g}]; clamped")
+            else:
+                ports[p] = float(y)
+                if self._bad[p]:
+                    self._bad[p] = False
+                    self._n_bad -= 1
+        if clamped and self._valid_port is not None:
+            ports[self._valid_port] = 0.0
         return ok
 
     def terminate(self):
-        pass
+        if self._phase not in (_STEPPING,):
+            self._refuse("fmi2Terminate", _STEPPING)
+            return
+        self._phase = _TERMINATED
 
     # ------------------------------------------------------------------ variable access (Python path)
     @_host_call("fmi2GetReal", lambda n: [0.0] * n)
@@ -414,14 +588,15 @@ class SideslipSlave(Fmi2Slave):
             self._log(f"{self.modelName}: value reference {vr} is not a {kind} variable", _ERROR)
             return False
         var = self.vars[vr]
+        if self._phase == _TERMINATED:
+            return self._refuse(f"setting '{var.name}'", f"{_INSTANTIATED}, {_INITIALIZING} or {_STEPPING}")
         if var.causality in (Fmi2Causality.output, Fmi2Causality.local):
-            self._log_once(("set-output", vr), f"{self.modelName}: '{var.name}' is an {var.causality.name} and "
-                           "cannot be set", _WARNING)
+            self._log(f"{self.modelName}: '{var.name}' is an {var.causality.name} and cannot be set", _ERROR)
             return False
-        if (self._initialized and var.causality == Fmi2Causality.parameter
+        if (self._phase == _STEPPING and var.causality == Fmi2Causality.parameter
                 and var.variability == Fmi2Variability.fixed):
-            self._log_once(("set-fixed", vr), f"{self.modelName}: fixed parameter '{var.name}' cannot change "
-                           "after initialisation; ignored", _WARNING)
+            self._log(f"{self.modelName}: fixed parameter '{var.name}' cannot change after initialisation; "
+                      "ignored", _ERROR)
             return False
         return True
 
@@ -430,6 +605,9 @@ class SideslipSlave(Fmi2Slave):
         n_in = self._n_in
         for vr, x in zip(vrs, values):
             if 1 <= vr <= n_in and self._port_kind[vr - 1] == "R":
+                if self._phase == _TERMINATED:
+                    self._refuse(f"setting '{self.vars[vr].name}'", f"{_INSTANTIATED}, {_INITIALIZING} or {_STEPPING}")
+                    continue
                 self._ports[vr - 1] = x            # checked at the next doStep
             elif self._check_settable(vr, "Real"):
                 self._vals[vr] = float(x)
@@ -445,6 +623,9 @@ class SideslipSlave(Fmi2Slave):
         n_in = self._n_in
         for vr, x in zip(vrs, values):
             if 1 <= vr <= n_in and self._port_kind[vr - 1] == "B":
+                if self._phase == _TERMINATED:
+                    self._refuse(f"setting '{self.vars[vr].name}'", f"{_INSTANTIATED}, {_INITIALIZING} or {_STEPPING}")
+                    continue
                 self._ports[vr - 1] = 1.0 if x else 0.0
             elif self._check_settable(vr, "Boolean"):
                 self._vals[vr] = bool(x)
@@ -452,36 +633,75 @@ class SideslipSlave(Fmi2Slave):
     @_host_call("fmi2SetString")
     def set_string(self, vrs, values):
         for vr, x in zip(vrs, values):
+            if vr == self._renew_vr:
+                self._renew()
+                return
             if self._check_settable(vr, "String"):
                 self._vals[vr] = str(x)
 
     # ------------------------------------------------------------------ FMU state
-    _STATE_FIELDS = ("_vals", "_last_in", "_warned", "model", "_failed", "_initialized", "_t0")
+    _STATE_FIELDS = ("_last_in", "_bad", "_episodes", "_reported", "_suppressed", "_n_bad", "_warned", "_failed",
+                     "_phase", "_t0", "_t")
 
     def _get_fmu_state(self):
+        """The state as bytes (:mod:`sideslip.fmi.state`); b"" and an error logged if it cannot be written."""
         try:
-            state = copy.deepcopy({k: getattr(self, k) for k in self._STATE_FIELDS})
-            state["_ports"] = list(self._ports)
-            return state
+            model = None if self.model is None else base64.b64encode(fmu_state.dumps(self.model)).decode("ascii")
+            return fmu_state.dumps({"fmu": self.modelName, "vals": list(self._vals), "ports": list(self._ports),
+                                    "fields": {k: getattr(self, k) for k in self._STATE_FIELDS}, "model": model})
         except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName}: fmi2GetFMUstate failed: {exc!r}", _ERROR)
-            return {}
+            self._log(f"{self.modelName}: fmi2GetFMUstate failed: {type(exc).__name__}: {exc}", _ERROR)
+            return b""
 
     def _set_fmu_state(self, state):
+        """Restore a state of :meth:`_get_fmu_state`; anything else is refused (error logged, nothing changed)."""
         try:
-            if not state:
-                raise ValueError("empty FMU state")
-            state = copy.deepcopy(state)
-            self._ports[:] = state.pop("_ports")     # same buffer: the shim's address stays valid
-            for k, v in state.items():
-                setattr(self, k, v)
-        except Exception as exc:  # noqa: BLE001
-            self._log(f"{self.modelName}: fmi2SetFMUstate failed: {exc!r}", _ERROR)
+            if not isinstance(state, (bytes, bytearray)) or not state:
+                raise fmu_state.StateError("empty FMU state")
+            outer = fmu_state.loads(state)
+            if not isinstance(outer, dict) or outer.get("fmu") != self.modelName:
+                raise fmu_state.StateError(f"not a state of {self.modelName}")
+            vals, ports, fields = outer.get("vals"), outer.get("ports"), outer.get("fields")
+            if not (isinstance(vals, list) and len(vals) == len(self._vals) and isinstance(ports, list)
+                    and len(ports) == self._n_ports and isinstance(fields, dict)
+                    and set(fields) == set(self._STATE_FIELDS)):
+                raise fmu_state.StateError("the state's variables do not match this FMU")
+            kinds = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
+            for vr, (kind, value) in enumerate(zip(self._kind, vals)):
+                if (value is None) != (vr == 0 or self._vals[vr] is None) or (
+                        value is not None and type(value) is not kinds[kind]):
+                    raise fmu_state.StateError(f"variable {vr} ({self.vars[vr].name}) has a value of the wrong type")
+            if not all(isinstance(x, float) for x in ports) or fields["_phase"] not in (
+                    _INSTANTIATED, _INITIALIZING, _STEPPING, _TERMINATED):
+                raise fmu_state.StateError("the state's ports or phase are not valid")
+            model = None
+            if outer.get("model") is not None:
+                saved_vals, self._vals = self._vals, vals
+                try:
+                    template = self._build_model()         # what is not data comes from a model built anew
+                finally:
+                    self._vals = saved_vals
+                model = fmu_state.loads(base64.b64decode(outer["model"], validate=True), template)
+                if type(model) is not type(template):
+                    raise fmu_state.StateError("the state's model is not this FMU's model")
+        except Exception as exc:  # noqa: BLE001 - a bad state is the host's error, never a crash
+            self._log(f"{self.modelName}: fmi2SetFMUstate refused: "
+                      f"{type(exc).__name__}: {exc}", _ERROR)
+            return
+        self._vals = vals
+        self._ports[:] = ports                       # same buffer: the shim's address stays valid
+        for k, v in fields.items():
+            setattr(self, k, v)
+        self.model = model
 
     @staticmethod
     def _fmu_state_to_bytes(state) -> bytes:
-        return pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
+        return bytes(state) if isinstance(state, (bytes, bytearray)) else b""
 
     @staticmethod
     def _fmu_state_from_bytes(data: bytes):
-        return pickle.loads(data)
+        return bytes(data)                           # checked when set: a refusal then is an fmi2Error
+
+
+if _ROOT != "sideslip":          # inside an FMU (the per-build package): load it all while its folder exists
+    import_bundle()

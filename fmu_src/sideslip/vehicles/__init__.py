@@ -5,6 +5,12 @@ Each TOML file holds ``[params]`` (the :class:`VehicleParams` fields) and ``[sou
 the paper does not provide).  Load with :func:`load_vehicle` by name or path; override
 single values with ``"m=2000, I_zz=3800"``.  Every model configuration that takes a vehicle
 inherits :class:`VehicleConfig` (the parameter pair ``vehicle`` / ``vehicle_overrides``).
+
+A user's file must give every parameter, or name a vehicle to inherit the rest from with a
+top-level ``base = "pi2011_suv"`` (a bundled name, or a file path relative to it): a file with a
+few keys is refused naming the missing ones, not silently completed with defaults.  The bundled
+files are read when the module is imported, so an FMU keeps them when its host deletes its
+unpacked folder.
 """
 from __future__ import annotations
 
@@ -207,29 +213,51 @@ class VehicleParams:
         return build(VehicleParams, base, prefix="vehicle.")
 
 
+def _parse(text: str, where: str) -> dict:
+    """A vehicle file's tables; a file that is not TOML or has no ``[params]`` names the file and why."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError("vehicle", where, f"a TOML file ({exc})") from None
+    if not isinstance(data.get("params"), dict):
+        raise ParameterError("vehicle", where, "a TOML file with a [params] table")
+    return data
+
+
+_BUNDLED: dict[str, dict] = {p.stem: _parse(p.read_text(), str(p)) for p in sorted(_DIR.glob("*.toml"))}
+"""The bundled vehicle files by name, read at import (see module docstring)."""
+
+_REQUIRED = tuple(f.name for f in dataclasses.fields(VehicleParams) if f.name != "name")
+
+
 def vehicle_names() -> list[str]:
     """Names of the bundled vehicle parameter sets."""
-    return sorted(p.stem for p in _DIR.glob("*.toml"))
-
-
-def _resolve(name_or_path: str) -> Path:
-    path = Path(name_or_path)
-    if path.suffix == ".toml" and path.is_file():
-        return path
-    candidate = _DIR / f"{name_or_path}.toml"
-    if candidate.is_file():
-        return candidate
-    raise ParameterError("vehicle", name_or_path,
-                         "one of " + ", ".join(vehicle_names()) + " or the path of a vehicle TOML file")
+    return sorted(_BUNDLED)
 
 
 @lru_cache(maxsize=32)
-def _load_file(path: str) -> tuple[dict, dict]:
-    with open(path, "rb") as fh:
-        data = tomllib.load(fh)
-    if "params" not in data:
-        raise ParameterError("vehicle", path, "a TOML file with a [params] table")
-    return data["params"], data.get("source", {})
+def _load_file(name_or_path: str, _chain: tuple = ()) -> tuple[str, dict, dict]:
+    """``(name, params, source)`` of a bundled name or a TOML path, a ``base`` merged in."""
+    if name_or_path in _BUNDLED:
+        data, name, folder = _BUNDLED[name_or_path], name_or_path, _DIR
+    else:
+        path = Path(name_or_path)
+        if path.suffix != ".toml" or not path.is_file():
+            raise ParameterError("vehicle", name_or_path,
+                                 "one of " + ", ".join(vehicle_names()) + " or the path of a vehicle TOML file")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ParameterError("vehicle", name_or_path, f"a readable TOML file ({exc})") from None
+        data, name, folder = _parse(text, name_or_path), path.stem, path.parent
+    params = dict(data["params"])
+    base = data.get("base")
+    if base is not None:
+        if not isinstance(base, str) or base in _chain + (name_or_path,):
+            raise ParameterError("vehicle", name_or_path, "a 'base' naming another vehicle (no cycle)")
+        resolved = base if base in _BUNDLED else str(folder / base)
+        params = {**_load_file(resolved, _chain + (name_or_path,))[1], **params}
+    return name, params, data.get("source", {})
 
 
 def load_vehicle(name_or_path: str, overrides: str | dict = "") -> VehicleParams:
@@ -238,18 +266,24 @@ def load_vehicle(name_or_path: str, overrides: str | dict = "") -> VehicleParams
     Raises
     ------
     ParameterError
-        Unknown vehicle, unknown field, or a value outside its allowed range.
+        Unknown vehicle, a file that cannot be read or parsed, missing parameters (without a
+        ``base``), an unknown field, or a value outside its allowed range; the message names the
+        file or the parameter.
     """
-    path = _resolve(name_or_path)
-    params, _ = _load_file(str(path))
-    vehicle = build(VehicleParams, {"name": path.stem, **params}, prefix="vehicle.")
+    name, params, _ = _load_file(name_or_path)
+    missing = [k for k in _REQUIRED if k not in params]
+    if missing:
+        raise ParameterError("vehicle", name_or_path,
+                             f"a [params] table with every vehicle parameter; missing: {', '.join(missing)} "
+                             "(or a top-level base = \"<bundled vehicle or file>\" to inherit them)")
+    vehicle = build(VehicleParams, {"name": name, **params}, prefix="vehicle.")
     return vehicle.with_overrides(overrides)
 
 
 def vehicle_source(name_or_path: str) -> dict:
     """The ``[source]`` table of a vehicle file (paper, table, assumed values with reasons; a key of
     ``assumed`` may be a glob pattern naming a group, e.g. ``"mf_*"``)."""
-    return dict(_load_file(str(_resolve(name_or_path)))[1])
+    return dict(_load_file(name_or_path)[2])
 
 
 @dataclass(frozen=True)

@@ -35,6 +35,24 @@
  *     raw.  The layout is read after fmi2Instantiate and fmi2Reset (which re-creates the
  *     Python object); FMU state restore writes into the same array.
  *
+ *  4. Robustness.  fmi2Instantiate refuses a GUID that is not this FMU's (compiled in by the
+ *     builder) and Model Exchange.  FMU states are wrapped in a struct of the shim's (NULL, a
+ *     freed or foreign state is refused with fmi2Error, never handed to pythonfmu); serialised
+ *     states carry a frame (magic, version, length, FNV-1a checksum) checked before pythonfmu
+ *     sees the bytes; fmi2SerializeFMUstate refuses a buffer of the wrong size.  Once pythonfmu
+ *     has returned fmi2Fatal (it then frees its Python instance) every later call is refused
+ *     instead of reaching freed memory.  After fmi2Terminate the port fast path refuses sets.
+ *  6. Instances are reused.  pythonfmu 0.7 leaks about 1 KB at every fmi2Instantiate (it
+ *     compiles the wrapper again and keeps a list of the class's MRO), so a host that instantiates
+ *     and frees in a loop would grow without bound.  fmi2FreeInstance resets the instance
+ *     (pythonfmu re-creates the Python object, which costs nothing lasting) and keeps up to
+ *     POOL_MAX of them; fmi2Instantiate takes one of the same resource location from there.  The
+ *     host's name and callbacks are the new ones: the shim passes its own instance name to the
+ *     host's logger, and the Python side's messages do not name the instance.
+ *  5. Status.  Warnings are logged but do not change the returned status: hosts such as
+ *     OMSimulator and fmusim stop on fmi2Warning, and the FMUs use warnings only for conditions
+ *     they handle (a held or clamped input); errors still give fmi2Error.
+ *
  * Messages are forwarded unchanged (pythonfmu passes them as the format argument; the
  * Python side never emits '%').
  */
@@ -70,9 +88,17 @@
 #ifndef SIDESLIP_PY_SONAMES
 #define SIDESLIP_PY_SONAMES "libpython3.so" /* fallback sonames, ':'-separated */
 #endif
+#ifndef SIDESLIP_FMU_GUID
+#define SIDESLIP_FMU_GUID ""             /* the FMU's GUID (empty: not checked) */
+#endif
+
+#define STATE_MAGIC 0x53535354u          /* "SSST": a live FMU state of this shim */
+#define FRAME_MAGIC "SSFMU-STATE-FRAME"  /* serialised states */
+#define FRAME_VERSION 1u
+#define FRAME_HEAD (sizeof(FRAME_MAGIC) - 1 + 4 + 8 + 8)
 
 #define INNER_NAME "pythonfmu_export.so"
-#define PORT_MAGIC "sideslip-ports-v1:"
+#define PORT_MAGIC "sideslip-ports-v2:"
 
 typedef struct {
     fmi2Component inner;
@@ -86,7 +112,25 @@ typedef struct {
     fmi2ValueReference first;    /* value reference of port 0 */
     unsigned n_in, n_ports;
     char *kinds;                 /* 'R' / 'B' per port */
+    int dead;                    /* pythonfmu returned fmi2Fatal: its instance is gone */
+    int terminated;              /* fmi2Terminate succeeded (sets refused until fmi2Reset) */
+    char name[256];              /* instance name, for messages */
+    char *location;              /* resource location the instance was made for (reuse, 6) */
+    fmi2ValueReference renew;    /* the Python side's "_renew" variable (0: none) */
 } Shim;
+
+static fmi2Status renew_inner(Shim *s);
+
+#define POOL_MAX 32
+static Shim *g_pool[POOL_MAX];
+static int g_pooled = 0;
+static pthread_mutex_t g_pool_lock = PTHREAD_MUTEX_INITIALIZER;
+
+typedef struct {                 /* an FMU state handed to the host */
+    unsigned magic;
+    Shim *owner;
+    fmi2FMUstate inner;          /* pythonfmu's state (a Python object) */
+} ShimState;
 
 static void *g_lib = NULL;
 
@@ -265,12 +309,56 @@ static int category_enabled(const Shim *s, fmi2String category) {
 static void shim_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                         fmi2String category, fmi2String message, ...) {
     Shim *s = (Shim *)env;
-    if (status > s->worst) s->worst = status;
+    if (status > s->worst && status != fmi2Warning) s->worst = status;   /* warnings: logged only (5) */
+    (void)instance;                                /* pythonfmu's name may be of a reused instance (6) */
     if (s->host.logger && (status >= fmi2Warning || category_enabled(s, category)))
-        s->host.logger(s->host.componentEnvironment, instance, status, category, message);
+        s->host.logger(s->host.componentEnvironment, s->name, status, category, message);
 }
 
-static fmi2Status worst(Shim *s, fmi2Status st) { return st > s->worst ? st : s->worst; }
+static fmi2Status worst(Shim *s, fmi2Status st) {
+    fmi2Status w = st > s->worst ? st : s->worst;
+    if (st == fmi2Fatal) s->dead = 1;
+    return w == fmi2Warning ? fmi2OK : w;
+}
+
+/* A message made safe as a printf format: hosts pass the text as the format, some format it and
+ * some do not, so it must hold no '%'. */
+static void no_percent(char *msg) {
+    for (char *p = msg; *p; p++) if (*p == '%') *p = '?';
+}
+
+/* Log an error of the shim itself to the host (always: errors pass every filter). */
+static fmi2Status shim_error(Shim *s, const char *fmt, const char *detail) {
+    if (s && s->host.logger) {
+        char msg[1024];
+        snprintf(msg, sizeof msg, fmt, detail ? detail : "");
+        no_percent(msg);
+        s->host.logger(s->host.componentEnvironment, s->name, fmi2Error, "logStatusError", msg);
+    }
+    return fmi2Error;
+}
+
+static uint64_t fnv1a(const unsigned char *p, size_t n) {
+    uint64_t h = 1469598103934665603ull;
+    for (size_t i = 0; i < n; i++) { h ^= p[i]; h *= 1099511628211ull; }
+    return h;
+}
+
+static void put_u32(unsigned char *p, uint32_t v) { for (int i = 0; i < 4; i++) p[i] = (unsigned char)(v >> (24 - 8 * i)); }
+static void put_u64(unsigned char *p, uint64_t v) { for (int i = 0; i < 8; i++) p[i] = (unsigned char)(v >> (56 - 8 * i)); }
+static uint32_t get_u32(const unsigned char *p) { uint32_t v = 0; for (int i = 0; i < 4; i++) v = (v << 8) | p[i]; return v; }
+static uint64_t get_u64(const unsigned char *p) { uint64_t v = 0; for (int i = 0; i < 8; i++) v = (v << 8) | p[i]; return v; }
+
+/* The state handle if it is a live state of this instance, else NULL (and an error logged). */
+static ShimState *own_state(Shim *s, fmi2FMUstate state, const char *call) {
+    ShimState *st = (ShimState *)state;
+    if (!st) { shim_error(s, "%s: the FMU state is NULL", call); return NULL; }
+    if (st->magic != STATE_MAGIC || st->owner != s) {
+        shim_error(s, "%s: not an FMU state of this instance (freed, or of another instance)", call);
+        return NULL;
+    }
+    return st;
+}
 
 /* Read the port layout published by the Python instance; disables the fast path if absent. */
 static void query_layout(Shim *s) {
@@ -284,9 +372,10 @@ static void query_layout(Shim *s) {
     size_t magic = strlen(PORT_MAGIC);
     if (strncmp(text, PORT_MAGIC, magic) != 0) goto done;
     unsigned long long addr = 0;
-    unsigned first = 0, n_in = 0, n_ports = 0;
+    unsigned first = 0, n_in = 0, n_ports = 0, renew = 0;
     int used = 0;
-    if (sscanf(text + magic, "%llx:%u:%u:%u:%n", &addr, &first, &n_in, &n_ports, &used) != 4) goto done;
+    if (sscanf(text + magic, "%llx:%u:%u:%u:%u:%n", &addr, &first, &n_in, &n_ports, &renew, &used) != 5) goto done;
+    s->renew = renew;
     const char *kinds = text + magic + used;
     if (!addr || n_in > n_ports || strlen(kinds) != n_ports) goto done;
     s->kinds = strdup(kinds);
@@ -314,7 +403,9 @@ static int all_ports(const Shim *s, const fmi2ValueReference vr[], size_t nvr, c
     return 1;
 }
 
-#define CALL(expr) Shim *s = (Shim *)c; s->worst = fmi2OK; fmi2Status st = (expr); return worst(s, st);
+#define ALIVE(s) if (!(s)) return fmi2Error; \
+    if ((s)->dead) return shim_error((s), "%sthe FMU instance failed fatally before; only fmi2FreeInstance is possible", "");
+#define CALL(expr) Shim *s = (Shim *)c; ALIVE(s) s->worst = fmi2OK; fmi2Status st = (expr); return worst(s, st);
 
 FMI2_Export const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 FMI2_Export const char *fmi2GetVersion(void) { return fmi2Version; }
@@ -330,27 +421,68 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
     const char *why = g_lib ? NULL : ensure_python(err, sizeof err, note, sizeof note);
     int first = !g_lib;
     if (!why) why = load_inner(err, sizeof err);
-    if (!why && first) atexit(release_inner_guard);
+    if (!why && first) {
+        atexit(release_inner_guard);
+        /* stay loaded when the host unloads this library after fmi2FreeInstance (fmpy does): the
+         * instances kept for reuse (6) and the loaded pythonfmu library outlive a dlclose */
+        Dl_info self;
+        if (dladdr((void *)&fmi2Instantiate, &self) && self.dli_fname)
+            dlopen(self.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+    }
     pthread_mutex_unlock(&lock);
+    if (!why && fmuType != fmi2CoSimulation)
+        why = "this FMU is for Co-Simulation only; fmi2Instantiate was asked for Model Exchange";
+    if (!why && *SIDESLIP_FMU_GUID && (!fmuGUID || strcmp(fmuGUID, SIDESLIP_FMU_GUID) != 0)) {
+        snprintf(err, sizeof err, "fmi2Instantiate was given the GUID '%s', this FMU's is '%s' (a modelDescription.xml "
+                 "of another FMU or another build?)", fmuGUID ? fmuGUID : "(null)", SIDESLIP_FMU_GUID);
+        why = err;
+    }
     if (why) {
-        if (functions && functions->logger)
-            functions->logger(functions->componentEnvironment, instanceName, fmi2Fatal, "logStatusFatal", "%s", why);
+        if (functions && functions->logger) {
+            char msg[8192];
+            snprintf(msg, sizeof msg, "%s", why);
+            no_percent(msg);
+            functions->logger(functions->componentEnvironment, instanceName, fmi2Error, "logStatusError", msg);
+        }
         return NULL;
     }
-    Shim *s = (Shim *)calloc(1, sizeof(Shim));
-    if (!s) return NULL;
+    if (!functions) return NULL;
+    const char *location = fmuResourceLocation ? fmuResourceLocation : "";
+    Shim *s = NULL;
+    pthread_mutex_lock(&g_pool_lock);              /* a freed instance of the same location (6) */
+    for (int i = g_pooled - 1; i >= 0 && !s; i--)
+        if (strcmp(g_pool[i]->location, location) == 0) {
+            s = g_pool[i];
+            g_pool[i] = g_pool[--g_pooled];
+        }
+    pthread_mutex_unlock(&g_pool_lock);
+    int reused = s != NULL;
+    if (!s) {
+        s = (Shim *)calloc(1, sizeof(Shim));
+        if (!s) return NULL;
+        s->location = strdup(location);
+        if (!s->location) { free(s); return NULL; }
+    }
+    snprintf(s->name, sizeof s->name, "%s", instanceName ? instanceName : "");
     s->host = *functions;
     s->own = *functions;
     s->own.logger = shim_logger;
     s->own.componentEnvironment = s;
     s->logging_on = loggingOn ? 1 : 0;
-    if (*note && s->logging_on && functions->logger)
-        functions->logger(functions->componentEnvironment, instanceName, fmi2OK, "logAll", "%s", note);
-    s->inner = p_fmi2Instantiate(instanceName, fmuType, fmuGUID, fmuResourceLocation, &s->own, visible,
-                                 fmi2True);
-    if (!s->inner) {
-        free(s);
-        return NULL;
+    s->worst = fmi2OK;
+    s->dead = s->terminated = 0;
+    if (*note && s->logging_on && functions->logger) {
+        no_percent(note);
+        functions->logger(functions->componentEnvironment, instanceName, fmi2OK, "logAll", note);
+    }
+    if (!reused) {
+        s->inner = p_fmi2Instantiate(instanceName, fmuType, fmuGUID, fmuResourceLocation, &s->own, visible,
+                                     fmi2True);
+        if (!s->inner) {
+            free(s->location);
+            free(s);
+            return NULL;
+        }
     }
     query_layout(s);
     return s;
@@ -366,15 +498,30 @@ static void free_categories(Shim *s) {
 FMI2_Export void fmi2FreeInstance(fmi2Component c) {
     if (!c) return;
     Shim *s = (Shim *)c;
-    p_fmi2FreeInstance(s->inner);
     free_categories(s);
+    s->logging_on = 0;
+    if (!s->dead) {                                /* keep it for the next fmi2Instantiate (6) */
+        s->ports = NULL;
+        s->worst = fmi2OK;
+        fmi2Status st = renew_inner(s);            /* a fresh Python object; its logs go nowhere now */
+        s->host.logger = NULL;
+        pthread_mutex_lock(&g_pool_lock);
+        int kept = st <= fmi2Warning && s->worst <= fmi2Warning && g_pooled < POOL_MAX;
+        if (kept) g_pool[g_pooled++] = s;
+        pthread_mutex_unlock(&g_pool_lock);
+        if (kept) return;
+    }
+    s->host.logger = NULL;
+    p_fmi2FreeInstance(s->inner);
     free(s->kinds);
+    free(s->location);
     free(s);
 }
 
 FMI2_Export fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
                                            const fmi2String categories[]) {
     Shim *s = (Shim *)c;
+    if (!s) return fmi2Error;
     free_categories(s);
     s->logging_on = loggingOn ? 1 : 0;
     if (nCategories > 0 && categories) {
@@ -392,18 +539,40 @@ FMI2_Export fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranc
 }
 FMI2_Export fmi2Status fmi2EnterInitializationMode(fmi2Component c) { CALL(p_fmi2EnterInitializationMode(s->inner)) }
 FMI2_Export fmi2Status fmi2ExitInitializationMode(fmi2Component c) { CALL(p_fmi2ExitInitializationMode(s->inner)) }
-FMI2_Export fmi2Status fmi2Terminate(fmi2Component c) { CALL(p_fmi2Terminate(s->inner)) }
+FMI2_Export fmi2Status fmi2Terminate(fmi2Component c) {
+    Shim *s = (Shim *)c;
+    ALIVE(s)
+    s->worst = fmi2OK;
+    fmi2Status st = worst(s, p_fmi2Terminate(s->inner));
+    if (st == fmi2OK) s->terminated = 1;
+    return st;
+}
+/* Make the Python instance new (fmi2Reset, reuse): through its "_renew" variable when it has one,
+ * else pythonfmu's reset (which leaks the old Python object). */
+static fmi2Status renew_inner(Shim *s) {
+    s->ports = NULL;                 /* the instance's port array is re-created */
+    fmi2Status st;
+    if (s->renew) {
+        fmi2String one = "1";
+        st = p_fmi2SetString(s->inner, &s->renew, 1, &one);
+    } else {
+        st = p_fmi2Reset(s->inner);
+    }
+    if (st <= fmi2Warning) query_layout(s);
+    return st;
+}
+
 FMI2_Export fmi2Status fmi2Reset(fmi2Component c) {
     Shim *s = (Shim *)c;
+    ALIVE(s)
     s->worst = fmi2OK;
-    s->ports = NULL;                 /* the Python instance and its port array are re-created */
-    fmi2Status st = p_fmi2Reset(s->inner);
-    if (st <= fmi2Warning) query_layout(s);
-    return worst(s, st);
+    s->terminated = 0;
+    return worst(s, renew_inner(s));
 }
 
 FMI2_Export fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
     Shim *s = (Shim *)c;
+    ALIVE(s)
     if (all_ports(s, vr, nvr, 'R', 0)) {
         for (size_t i = 0; i < nvr; i++) value[i] = s->ports[vr[i] - s->first];
         return fmi2OK;
@@ -418,6 +587,7 @@ FMI2_Export fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference 
 FMI2_Export fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                       fmi2Boolean value[]) {
     Shim *s = (Shim *)c;
+    ALIVE(s)
     if (all_ports(s, vr, nvr, 'B', 0)) {
         for (size_t i = 0; i < nvr; i++) value[i] = s->ports[vr[i] - s->first] != 0.0 ? fmi2True : fmi2False;
         return fmi2OK;
@@ -432,6 +602,9 @@ FMI2_Export fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference v
 FMI2_Export fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                    const fmi2Real value[]) {
     Shim *s = (Shim *)c;
+    ALIVE(s)
+    if (s->terminated && all_ports(s, vr, nvr, 'R', 1))
+        return shim_error(s, "fmi2SetReal: inputs cannot be set after fmi2Terminate%s", "");
     if (all_ports(s, vr, nvr, 'R', 1)) {
         for (size_t i = 0; i < nvr; i++) s->ports[vr[i] - s->first] = value[i];
         return fmi2OK;
@@ -446,6 +619,9 @@ FMI2_Export fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference 
 FMI2_Export fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                       const fmi2Boolean value[]) {
     Shim *s = (Shim *)c;
+    ALIVE(s)
+    if (s->terminated && all_ports(s, vr, nvr, 'B', 1))
+        return shim_error(s, "fmi2SetBoolean: inputs cannot be set after fmi2Terminate%s", "");
     if (all_ports(s, vr, nvr, 'B', 1)) {
         for (size_t i = 0; i < nvr; i++) s->ports[vr[i] - s->first] = value[i] ? 1.0 : 0.0;
         return fmi2OK;
@@ -455,28 +631,129 @@ FMI2_Export fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference 
 }
 FMI2_Export fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                      const fmi2String value[]) {
-    CALL(p_fmi2SetString(s->inner, vr, nvr, value))
+    Shim *s = (Shim *)c;
+    ALIVE(s)
+    for (size_t i = 0; i < nvr && s->renew; i++)
+        if (vr && vr[i] == s->renew) return shim_error(s, "fmi2SetString: '_renew' is internal; call fmi2Reset%s", "");
+    s->worst = fmi2OK;
+    return worst(s, p_fmi2SetString(s->inner, vr, nvr, value));
 }
 
 FMI2_Export fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
-    CALL(p_fmi2GetFMUstate(s->inner, FMUstate))
+    Shim *s = (Shim *)c;
+    ALIVE(s)
+    if (!FMUstate) return shim_error(s, "fmi2GetFMUstate: NULL pointer for the state%s", "");
+    ShimState *mine = (ShimState *)*FMUstate;
+    if (mine && (mine->magic != STATE_MAGIC || mine->owner != s))
+        return shim_error(s, "fmi2GetFMUstate: the state to overwrite is not an FMU state of this instance%s", "");
+    if (!mine) {
+        mine = (ShimState *)calloc(1, sizeof(ShimState));
+        if (!mine) return shim_error(s, "fmi2GetFMUstate: out of memory%s", "");
+        mine->magic = STATE_MAGIC;
+        mine->owner = s;
+    }
+    fmi2FMUstate old = mine->inner;
+    s->worst = fmi2OK;
+    fmi2FMUstate fresh = NULL;
+    fmi2Status st = worst(s, p_fmi2GetFMUstate(s->inner, &fresh));
+    if (st > fmi2Warning || !fresh) {
+        if (!*FMUstate) { mine->magic = 0; free(mine); }
+        return st > fmi2Warning ? st : shim_error(s, "fmi2GetFMUstate: no state%s", "");
+    }
+    if (old) p_fmi2FreeFMUstate(s->inner, &old);
+    mine->inner = fresh;
+    *FMUstate = mine;
+    return st;
 }
 FMI2_Export fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
-    CALL(p_fmi2SetFMUstate(s->inner, FMUstate))
+    Shim *s = (Shim *)c;
+    ALIVE(s)
+    ShimState *st = own_state(s, FMUstate, "fmi2SetFMUstate");
+    if (!st) return fmi2Error;
+    s->worst = fmi2OK;
+    fmi2Status r = worst(s, p_fmi2SetFMUstate(s->inner, st->inner));
+    if (r <= fmi2Warning) s->terminated = 0;     /* the restored state decides (the Python side checks) */
+    return r;
 }
 FMI2_Export fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
-    CALL(p_fmi2FreeFMUstate(s->inner, FMUstate))
+    Shim *s = (Shim *)c;
+    if (!s) return fmi2Error;
+    if (!FMUstate || !*FMUstate) return fmi2OK;   /* freeing nothing is allowed */
+    ShimState *st = own_state(s, *FMUstate, "fmi2FreeFMUstate");
+    if (!st) return fmi2Error;
+    if (!s->dead && st->inner) p_fmi2FreeFMUstate(s->inner, &st->inner);
+    st->magic = 0;
+    free(st);
+    *FMUstate = NULL;
+    return fmi2OK;
 }
 FMI2_Export fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
-    CALL(p_fmi2SerializedFMUstateSize(s->inner, FMUstate, size))
+    Shim *s = (Shim *)c;
+    ALIVE(s)
+    ShimState *st = own_state(s, FMUstate, "fmi2SerializedFMUstateSize");
+    if (!st) return fmi2Error;
+    if (!size) return shim_error(s, "fmi2SerializedFMUstateSize: NULL size pointer%s", "");
+    size_t n = 0;
+    s->worst = fmi2OK;
+    fmi2Status r = worst(s, p_fmi2SerializedFMUstateSize(s->inner, st->inner, &n));
+    if (r <= fmi2Warning) *size = n + FRAME_HEAD;
+    return r;
 }
 FMI2_Export fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[],
                                              size_t size) {
-    CALL(p_fmi2SerializeFMUstate(s->inner, FMUstate, serializedState, size))
+    Shim *s = (Shim *)c;
+    ALIVE(s)
+    ShimState *st = own_state(s, FMUstate, "fmi2SerializeFMUstate");
+    if (!st) return fmi2Error;
+    size_t n = 0;
+    s->worst = fmi2OK;
+    fmi2Status r = worst(s, p_fmi2SerializedFMUstateSize(s->inner, st->inner, &n));
+    if (r > fmi2Warning) return r;
+    if (!serializedState || size != n + FRAME_HEAD) {
+        char detail[128];
+        snprintf(detail, sizeof detail, "%zu bytes given, %zu needed", size, n + FRAME_HEAD);
+        return shim_error(s, "fmi2SerializeFMUstate: wrong buffer size (%s; ask fmi2SerializedFMUstateSize)", detail);
+    }
+    unsigned char *out = (unsigned char *)serializedState;
+    r = worst(s, p_fmi2SerializeFMUstate(s->inner, st->inner, (fmi2Byte *)out + FRAME_HEAD, n));
+    if (r > fmi2Warning) return r;
+    size_t m = sizeof(FRAME_MAGIC) - 1;
+    memcpy(out, FRAME_MAGIC, m);
+    put_u32(out + m, FRAME_VERSION);
+    put_u64(out + m + 4, (uint64_t)n);
+    put_u64(out + m + 12, fnv1a(out + FRAME_HEAD, n));
+    return r;
 }
 FMI2_Export fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                                fmi2FMUstate *FMUstate) {
-    CALL(p_fmi2DeSerializeFMUstate(s->inner, serializedState, size, FMUstate))
+    Shim *s = (Shim *)c;
+    ALIVE(s)
+    if (!FMUstate) return shim_error(s, "fmi2DeSerializeFMUstate: NULL pointer for the state%s", "");
+    const unsigned char *in = (const unsigned char *)serializedState;
+    size_t m = sizeof(FRAME_MAGIC) - 1;
+    if (!in || size < FRAME_HEAD || memcmp(in, FRAME_MAGIC, m) != 0)
+        return shim_error(s, "fmi2DeSerializeFMUstate: not a serialised FMU state of sideslip-fmu (wrong header)%s", "");
+    if (get_u32(in + m) != FRAME_VERSION)
+        return shim_error(s, "fmi2DeSerializeFMUstate: serialised by another version of the format%s", "");
+    uint64_t n = get_u64(in + m + 4);
+    if (n != size - FRAME_HEAD)
+        return shim_error(s, "fmi2DeSerializeFMUstate: length does not match the header (truncated or extended)%s", "");
+    if (fnv1a(in + FRAME_HEAD, (size_t)n) != get_u64(in + m + 12))
+        return shim_error(s, "fmi2DeSerializeFMUstate: checksum does not match (damaged)%s", "");
+    ShimState *st = (ShimState *)calloc(1, sizeof(ShimState));
+    if (!st) return shim_error(s, "fmi2DeSerializeFMUstate: out of memory%s", "");
+    s->worst = fmi2OK;
+    fmi2Status r = worst(s, p_fmi2DeSerializeFMUstate(s->inner, (const fmi2Byte *)in + FRAME_HEAD, (size_t)n,
+                                                      &st->inner));
+    if (r > fmi2Warning || !st->inner) {
+        free(st);
+        return r > fmi2Warning ? r : shim_error(s, "fmi2DeSerializeFMUstate: no state%s", "");
+    }
+    if (*FMUstate) fmi2FreeFMUstate(c, FMUstate);
+    st->magic = STATE_MAGIC;
+    st->owner = s;
+    *FMUstate = st;
+    return r;
 }
 FMI2_Export fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[],
                                                     size_t nUnknown, const fmi2ValueReference vKnown_ref[],
