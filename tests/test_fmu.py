@@ -219,8 +219,8 @@ def test_out_of_range_input_is_clamped_with_fmi2ok_and_a_warning(harness):
 
 
 @pytest.mark.parametrize("name,params,param_name,allowed", [
-    ("VehiclePlant", dict(vehicle_overrides="m=-5"), "vehicle.m", "> 0 kg"),
-    ("VehiclePlant", dict(vehicle_overrides="l_f=0, l_r=0"), "vehicle.l_f", "> 0 m"),
+    ("VehiclePlant", dict(vehicle_overrides="m=-5"), "vehicle.m", "(0, 100000] kg"),
+    ("VehiclePlant", dict(vehicle_overrides="l_f=0, l_r=0"), "vehicle.l_f", "(0, 10] m"),
     ("VehiclePlant", dict(vehicle="no_such_car"), "vehicle", "pi2011_suv"),
     ("VehiclePlant", dict(v_min=-1.0), "v_min", "(0.05, 5] m/s"),
     ("VehicleSensors", dict(gps_rate=0.0), "gps_rate", "[0.1, 100] Hz"),

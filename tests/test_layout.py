@@ -22,7 +22,7 @@ LAYERS = {"core": 0, "fmi": 1, "cosim": 2, "studies": 3, "cli": 4}
 
 THIRD_PARTY = {"core": {"numpy", "scipy", "control"},
                "fmi": {"numpy", "scipy", "control", "pythonfmu", "fmpy"},
-               "cosim": {"numpy", "scipy", "control", "pythonfmu", "fmpy", "libcosimpy"},
+               "cosim": {"numpy", "scipy", "control", "pythonfmu", "fmpy", "libcosimpy", "OMSimulator"},
                "studies": {"numpy", "scipy", "control", "fmpy", "matplotlib", "distributed"},
                "cli": {"numpy"}}
 """Third-party packages each layer may import (the core never imports pythonfmu or fmpy)."""

@@ -94,8 +94,8 @@ def test_every_bundled_vehicle_loads_and_validates():
 
 
 @pytest.mark.parametrize("override,param_name,allowed", [
-    ("m=-5", "vehicle.m", "> 0 kg"),
-    ("l_r=0", "vehicle.l_r", "> 0 m"),
+    ("m=-5", "vehicle.m", "(0, 100000] kg"),
+    ("l_r=0", "vehicle.l_r", "(0, 10] m"),
     ("steering_ratio=0.5", "vehicle.steering_ratio", "(1, 40]"),
     ("h_s=2.0", "vehicle.h_s", "<= sprung CG height"),
     ("K_phi_f=100, K_phi_r=100", "vehicle.K_phi_f", "statically stable roll"),

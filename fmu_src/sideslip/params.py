@@ -15,8 +15,8 @@ from typing import Any, Iterable, Mapping
 
 from .units import QUANTITIES
 
-__all__ = ["ParamInfo", "ParameterError", "param", "check", "declared_fields", "build", "parse_bool",
-           "parse_assignment", "parse_assignments", "describe_range"]
+__all__ = ["ParamInfo", "ParameterError", "ParamGroup", "ChoiceIndices", "param", "check", "declared_fields", "build", "parse_bool",
+           "parse_assignment", "parse_assignments", "format_assignments", "describe_range"]
 
 
 class ParameterError(ValueError):
@@ -57,13 +57,17 @@ class ParamInfo:
 
     @property
     def min(self) -> float:
-        """Lower bound for the modelDescription (``-inf`` when unbounded)."""
+        """Lower bound for the modelDescription (``-inf`` when unbounded; the least of numeric choices)."""
+        if self.choices is not None and all(isinstance(c, (int, float)) for c in self.choices):
+            return float(min(self.choices))
         lo = self.ge if self.ge is not None else self.gt
         return -math.inf if lo is None else float(lo)
 
     @property
     def max(self) -> float:
-        """Upper bound for the modelDescription (``inf`` when unbounded)."""
+        """Upper bound for the modelDescription (``inf`` when unbounded; the greatest of numeric choices)."""
+        if self.choices is not None and all(isinstance(c, (int, float)) for c in self.choices):
+            return float(max(self.choices))
         hi = self.le if self.le is not None else self.lt
         return math.inf if hi is None else float(hi)
 
@@ -248,3 +252,131 @@ def parse_assignments(text: str, name: str = "overrides") -> dict[str, str]:
             key, val = parse_assignment(item.strip(), name, "comma-separated key=value items")
             out[key] = val
     return out
+
+
+def format_assignments(values: Mapping[str, Any]) -> str:
+    """The text ``"a=1.5, b=x"`` that :func:`parse_assignments` reads back to the same values (floats
+    written with ``repr``, so exactly)."""
+    return ", ".join(f"{k}={v!r}" if isinstance(v, float) else f"{k}={v}" for k, v in values.items())
+
+
+def _numbered(choices) -> str:
+    """``"1 a, 2 b"``: the numbers of an enumeration's choices."""
+    return ", ".join(f"{i} {c}" for i, c in enumerate(choices, 1))
+
+
+@dataclass(frozen=True)
+class ParamGroup:
+    """The declared fields of a configuration class as a group of parameters ``<prefix>.<field>``.
+
+    What a host that cannot set String parameters uses instead of a text spec (a vehicle file, a
+    maneuver spec): every numeric or Boolean field, and every text field with ``choices`` as an
+    Integer enumeration ``1..n`` (text fields without choices are left out).
+
+    Parameters
+    ----------
+    prefix : str
+        Parameter names are ``prefix + "." + field``.
+    cls : type
+        Dataclass of :func:`param` fields.
+    defaults : Mapping
+        Start value of each field (e.g. the default vehicle's); the dataclass defaults where absent.
+    """
+
+    prefix: str
+    cls: type
+    defaults: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+
+    def parameters(self) -> list[tuple[str, Any, ParamInfo]]:
+        """``(name, start, info)`` of every parameter of the group, in declaration order."""
+        out = []
+        for f, info in declared_fields(self.cls):
+            if not info.fmu or (isinstance(f.default, str) and info.choices is None):
+                continue
+            start = self.defaults.get(f.name, f.default)
+            if isinstance(f.default, str):               # an enumeration 1..n of the choices
+                start = info.choices.index(start) + 1
+                info = dataclasses.replace(info, description=f"{info.description} ({_numbered(info.choices)})",
+                                           choices=None,
+                                           ge=1, gt=None, le=len(info.choices), lt=None)
+            out.append((f"{self.prefix}.{f.name}", start, info))
+        return out
+
+    def _choices(self, field: str) -> tuple:
+        return dict((f.name, i.choices) for f, i in declared_fields(self.cls))[field]
+
+    def values(self, parameters: Mapping[str, Any]) -> dict[str, Any]:
+        """The field values of parameter values ``{"<prefix>.<field>": value}`` (enumerations back to
+        their text), each checked against its declared range (errors name the parameter)."""
+        types = {f.name: (type(f.default), info) for f, info in declared_fields(self.cls)}
+        out = {}
+        for name, start, info in self.parameters():
+            field = name[len(self.prefix) + 1:]
+            value = parameters.get(name, start)
+            typ, declared = types[field]
+            if typ is str:
+                _check_value(name, value, info, int)
+                value = declared.choices[int(value) - 1]
+            else:
+                _check_value(name, value, declared, typ)
+            out[field] = value
+        return out
+
+    def numbers(self, obj) -> dict[str, Any]:
+        """The parameter values that stand for the fields of ``obj`` (an instance of ``cls``)."""
+        out = {}
+        for name, _, _ in self.parameters():
+            field = name[len(self.prefix) + 1:]
+            value = getattr(obj, field)
+            out[name] = self._choices(field).index(value) + 1 if isinstance(value, str) else value
+        return out
+
+    def changed(self, parameters: Mapping[str, Any]) -> dict[str, Any]:
+        """The fields whose parameter differs from its start value (checked like :meth:`values`)."""
+        starts = {name[len(self.prefix) + 1:]: start for name, start, _ in self.parameters()}
+        out = {}
+        for field, value in self.values(parameters).items():
+            start = starts[field]
+            if isinstance(value, str):
+                start = self._choices(field)[start - 1]
+            if value != start:
+                out[field] = value
+        return out
+
+
+@dataclass(frozen=True)
+class ChoiceIndices:
+    """Integer stand-ins ``<field>_index`` of a configuration's text fields with ``choices``.
+
+    A ``<field>_index`` of ``0`` (its start value) keeps the String ``<field>``; ``1..n`` selects the
+    n-th choice and wins over the String.
+    """
+
+    cls: type
+
+    def parameters(self) -> list[tuple[str, int, ParamInfo]]:
+        """``(name, 0, info)`` of every stand-in, in declaration order."""
+        out = []
+        for f, info in declared_fields(self.cls):
+            if info.fmu and isinstance(f.default, str) and info.choices is not None:
+                out.append((f"{f.name}_index", 0, ParamInfo(
+                    "Dimensionless", f"{info.description}, as a number: 0 the String '{f.name}', "
+                    f"{_numbered(info.choices)}",
+                    ge=0, le=len(info.choices))))
+        return out
+
+    def numbers(self, config) -> dict[str, int]:
+        """The stand-ins that select what ``config``'s text fields hold."""
+        return {name: self.cls.__dataclass_fields__[name[:-len("_index")]].metadata["param"].choices.index(
+            getattr(config, name[:-len("_index")])) + 1 for name, _, _ in self.parameters()}
+
+    def apply(self, config, values: Mapping[str, Any]):
+        """``config`` with every stand-in of ``values`` that is not 0 applied (checked like any parameter)."""
+        changes = {}
+        for name, start, info in self.parameters():
+            index = values.get(name, start)
+            _check_value(name, index, info, int)
+            if index:
+                field = name[:-len("_index")]
+                changes[field] = self.cls.__dataclass_fields__[field].metadata["param"].choices[index - 1]
+        return dataclasses.replace(config, **changes) if changes else config

@@ -19,12 +19,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..fmi.build import DEFAULT_OUT, ensure_fmus
-from ..fmi.catalogue import fmu_names, fmu_spec
-from ..params import parse_assignment
+from ..fmi.catalogue import CATALOGUE, fmu_names, fmu_spec
+from ..params import ParameterError, parse_assignment
 from ..scenarios import Scenario, scenario_params
 
 __all__ = ["Component", "Interface", "MasterError", "INPUT_ALIASES", "PLANT", "SENSORS", "DRIVER", "TRUTH_SOURCE",
-           "interface_of", "resolve_connections", "fmu_paths", "estimator_instances", "scenario_components"]
+           "interface_of", "resolve_connections", "fmu_paths", "numeric_parameters", "estimator_instances",
+           "scenario_components"]
 
 INPUT_ALIASES = {"Mz_dyc": ("Mz_cmd",)}
 """Input name -> output names that feed it besides the equal name (DESIGN.md renames)."""
@@ -149,6 +150,27 @@ def fmu_paths(components, fmu_dir: str | Path = DEFAULT_OUT) -> dict[str, Path]:
     by_name = [c.fmu for c in components if not str(c.fmu).endswith(".fmu")]
     paths = ensure_fmus(sorted(set(by_name)), fmu_dir) if by_name else {}
     return {c.name: Path(c.fmu) if str(c.fmu).endswith(".fmu") else paths[c.fmu] for c in components}
+
+
+def numeric_parameters(component: Component) -> dict:
+    """A component's parameters as Real, Integer and Boolean values only, for hosts that cannot set Strings
+    (:meth:`~sideslip.fmi.catalogue.FmuSpec.numeric_parameters` for catalogue FMUs; other FMUs' as given).
+
+    Raises
+    ------
+    MasterError
+        For a String value that has no numeric form.
+    """
+    name = Path(component.fmu).stem
+    try:
+        params = fmu_spec(name).numeric_parameters(component.parameters) if name in CATALOGUE else \
+            dict(component.parameters)
+    except ParameterError as exc:
+        raise MasterError(f"{component.name}: {exc}") from None
+    text = [k for k, v in params.items() if isinstance(v, str)]
+    if text:
+        raise MasterError(f"{component.name}: String parameters {', '.join(text)} have no numeric form")
+    return params
 
 
 # ---------------------------------------------------------------------------------------- scenarios

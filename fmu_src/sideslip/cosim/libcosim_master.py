@@ -212,16 +212,11 @@ def _observe(execution, CosimObserver, index, real_out, bool_out, duration, step
                 rec_b[k, col:col + len(vrs)] = observer.last_boolean_values(slave_index=i, variable_references=vrs)
                 col += len(vrs)
     wall = time.perf_counter() - wall0
-    names_r = [f"{inst}.{name}" for inst, name, _ in real_out]
-    names_b = [f"{inst}.{name}" for inst, name, _ in bool_out]
-    data = np.empty(n, dtype=[("time", float)] + [(nm, float) for nm in names_r] + [(nm, bool) for nm in names_b])
-    data["time"] = np.arange(1, n + 1) * step
-    for j, nm in enumerate(names_r):
-        data[nm] = rec_r[:, j]
-    for j, nm in enumerate(names_b):
-        data[nm] = rec_b[:, j]
+    columns = {"time": np.arange(1, n + 1) * step}
+    columns.update({f"{inst}.{name}": rec_r[:, j] for j, (inst, name, _) in enumerate(real_out)})
+    columns.update({f"{inst}.{name}": rec_b[:, j] for j, (inst, name, _) in enumerate(bool_out)})
     meta = {"master": "libcosim", "scheme": "jacobi", "step": step, "duration": n * step, "steps": n,
             "wall_time": wall, "real_time_factor": n * step / wall if wall > 0 else float("inf"),
             "us_per_step": wall / max(n, 1) * 1e6, "components": [], "connections": [],
             "unconnected_inputs": [], "messages": []}
-    return Results(data, meta)
+    return Results.from_columns(columns, meta)

@@ -16,6 +16,16 @@ class Results:
     data: np.ndarray
     meta: dict
 
+    @classmethod
+    def from_columns(cls, columns: dict, meta: dict) -> "Results":
+        """Results of equally long columns by name (``time`` first; Boolean arrays stay Boolean)."""
+        arrays = {name: np.asarray(values) for name, values in columns.items()}
+        n = len(arrays["time"])
+        data = np.empty(n, dtype=[(name, bool if a.dtype == bool else float) for name, a in arrays.items()])
+        for name, a in arrays.items():
+            data[name] = a
+        return cls(data, meta)
+
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[name]
 

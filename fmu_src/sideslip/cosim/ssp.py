@@ -4,15 +4,18 @@
 
 * ``SystemStructure.ssd``: one ``ssd:Component`` per instance (``source`` = its FMU under
   ``resources/``), a connector for every input, output and parameter with its type and unit,
-  the scenario's parameter values as an inline ``ssv:ParameterSet`` binding per component,
-  the connections of :func:`~sideslip.cosim.assembly.resolve_connections` (the masters' own
-  wiring), the unit definitions, and a ``DefaultExperiment`` (start 0, the scenario's stop
-  time) whose OSP annotation gives libcosim the fixed communication step;
+  the scenario's parameter values as an inline ``ssv:ParameterSet`` binding per component (in
+  numeric form by default, without String connectors: OMSimulator rejects those), the connections
+  of :func:`~sideslip.cosim.assembly.resolve_connections` (the masters' own wiring), the unit
+  definitions, OMSimulator's annotation of the system (its fixed-step master and step), and a
+  ``DefaultExperiment`` (start 0, the scenario's stop time) whose OSP annotation gives libcosim the
+  fixed communication step;
 * ``resources/<FMU>.fmu``: each FMU used, once.
 
 The package validates against the SSP 1.0 schema that fmpy ships (``fmpy.ssp.ssd.read_ssd``),
-runs in libcosim (:func:`~sideslip.cosim.libcosim_master.run_libcosim_ssp`) and can be
-opened by SSP-aware tools (OMSimulator, Simulink's SSP import).  SSP 1.0 has no coupling
+runs in libcosim (:func:`~sideslip.cosim.libcosim_master.run_libcosim_ssp`) and in the
+OMSimulator program (:func:`~sideslip.cosim.omsimulator_master.run_omsimulator_ssp`), and can be
+opened by other SSP-aware tools (Simulink's SSP import).  SSP 1.0 has no coupling
 scheme: libcosim runs it as Jacobi, like ``run --master libcosim``.  :func:`read_experiment`
 reads back what a master needs to run a package (start, stop, step).  This module owns the
 SSP namespaces (:data:`NS`).
@@ -30,14 +33,16 @@ from .. import __version__
 from ..fmi.build import DEFAULT_OUT
 from ..fmi.variables import format_value
 from ..scenarios import Scenario, get_scenario
-from .assembly import fmu_paths, interface_of, resolve_connections, scenario_components
+from .assembly import (Component, MasterError, fmu_paths, interface_of, numeric_parameters, resolve_connections,
+                       scenario_components)
 
 __all__ = ["export_ssp", "read_experiment", "NS"]
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
       "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
-      "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations"}
+      "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+      "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"}
 for _prefix, _uri in NS.items():
     register_namespace(_prefix, _uri)
 
@@ -86,7 +91,8 @@ def _units(mds) -> Element | None:
 
 def export_ssp(out: str | Path, scenario: str | Scenario, estimators=(), controller: str | None = None,
                params: dict | None = None, control_source: str | None = None, overrides: dict | None = None,
-               duration: float | None = None, step: float = 1e-3, fmu_dir: str | Path = DEFAULT_OUT) -> Path:
+               duration: float | None = None, step: float = 1e-3, fmu_dir: str | Path = DEFAULT_OUT,
+               numeric: bool | None = None) -> Path:
     """Write the closed loop of a scenario as an SSP 1.0 package.
 
     Parameters
@@ -103,6 +109,11 @@ def export_ssp(out: str | Path, scenario: str | Scenario, estimators=(), control
         Fixed communication step [s] (OSP annotation for libcosim).
     fmu_dir : path
         Folder of the built FMUs (built on demand).
+    numeric : bool, optional
+        ``True``: parameters in their numeric form (:func:`~sideslip.cosim.assembly.numeric_parameters`) and
+        no String connectors, which OMSimulator requires (raises :class:`~sideslip.cosim.assembly.MasterError`
+        for a String without numeric form, e.g. a friction time table); ``False``: the Strings as given (for
+        libcosim); ``None`` (default): numeric where every parameter has a numeric form, else the Strings.
 
     Returns
     -------
@@ -111,6 +122,15 @@ def export_ssp(out: str | Path, scenario: str | Scenario, estimators=(), control
     """
     sc = get_scenario(scenario, **(overrides or {})) if isinstance(scenario, str) else scenario
     comps, conns = scenario_components(sc, estimators, controller, params, control_source)
+    if numeric is not False:
+        try:
+            comps = [Component(c.fmu, c.name, numeric_parameters(c)) for c in comps]
+            numeric = True
+        except MasterError:
+            if numeric:
+                raise
+            numeric = False
+    kinds = ("Real", "Integer", "Boolean") + (() if numeric else ("String",))
     paths = fmu_paths(comps, fmu_dir)
     mds = {c.name: read_model_description(str(paths[c.name])) for c in comps}
     links, _ = resolve_connections([interface_of(c.name, mds[c.name]) for c in comps], conns)
@@ -128,7 +148,7 @@ def export_ssp(out: str | Path, scenario: str | Scenario, estimators=(), control
         connectors = SubElement(comp, _q("ssd:Connectors"))
         by_name = {}
         for v in md.modelVariables:
-            if v.causality in _KINDS and v.type in ("Real", "Integer", "Boolean", "String"):
+            if v.causality in _KINDS and v.type in kinds:
                 by_name[v.name] = v
                 con = SubElement(connectors, _q("ssd:Connector"), name=v.name, kind=_KINDS[v.causality])
                 if v.description:
@@ -148,6 +168,10 @@ def export_ssp(out: str | Path, scenario: str | Scenario, estimators=(), control
     for (dst, name), (src, output, _) in links.items():
         SubElement(connections, _q("ssd:Connection"), startElement=src, startConnector=output,
                    endElement=dst, endConnector=name)
+    oms = SubElement(SubElement(SubElement(system, _q("ssd:Annotations")), _q("ssc:Annotation"),
+                                type="org.openmodelica"), _q("oms:Annotations"))
+    SubElement(SubElement(oms, _q("oms:SimulationInformation")), _q("oms:FixedStepMaster"), description="oms-ma",
+               stepSize=repr(float(step)))
     units = _units(mds.values())
     if units is not None:
         root.append(units)

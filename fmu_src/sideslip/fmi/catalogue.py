@@ -85,6 +85,32 @@ class FmuSpec:
         """Output port names, in value-reference order: the model's, then :data:`HELD_OUTPUT`."""
         return tuple(self.model_class.output_names) + (HELD_OUTPUT,)
 
+    def numeric_parameters(self, params: dict) -> dict:
+        """``params`` (values by parameter name, Strings among them) as Real, Integer and Boolean
+        parameters only, configuring the same model: for hosts that cannot set Strings (OMSimulator).
+
+        Raises
+        ------
+        ParameterError
+            For a String value without a numeric form (e.g. a friction time table), named.
+        """
+        from ..params import ChoiceIndices, ParameterError, build, declared_fields
+
+        cls = self.config_class
+        texts = {f.name: f.default for f, info in declared_fields(cls) if isinstance(f.default, str) and info.fmu}
+        config = build(cls, {k: v for k, v in params.items() if k in texts or k in cls.__dataclass_fields__})
+        out = {k: v for k, v in params.items() if k not in texts}
+        stand_ins = ChoiceIndices(cls)
+        covered = {name[:-len("_index")] for name, _, _ in stand_ins.parameters()} | set(
+            getattr(cls, "STRING_STAND_INS", ()))
+        for name, default in texts.items():
+            if name not in covered and getattr(config, name) != default:
+                raise ParameterError(name, getattr(config, name), "its default: it has no numeric form")
+        out.update(stand_ins.numbers(config))
+        if hasattr(config, "numeric_parameters"):
+            out.update(config.numeric_parameters())
+        return out
+
     @property
     def library_module(self) -> str:
         """Module of the library model."""

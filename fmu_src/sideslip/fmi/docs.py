@@ -12,7 +12,7 @@ import importlib
 import re
 from pathlib import Path
 
-from ..params import declared_fields, describe_range
+from ..params import ChoiceIndices, declared_fields, describe_range
 from ..signals import SIGNALS
 from .catalogue import CATALOGUE, ROLES, FmuSpec
 
@@ -86,18 +86,83 @@ def _page(spec: FmuSpec) -> str:
     lines += ["", "## Parameters", "",
               "Set before `fmi2ExitInitializationMode`; a value outside its range fails initialisation "
               "with a message naming the parameter and the range.", "",
-              "| name | vr | type | unit | default | allowed | description |", "|---|---:|---|---|---|---|---|"]
-    for f, info in declared_fields(spec.config_class):
-        if not info.fmu:
-            continue
-        kind = {bool: "Boolean", int: "Integer", float: "Real", str: "String"}[type(f.default)]
-        unit = "" if kind != "Real" or info.unit == "1" else info.unit
-        allowed = "" if kind == "Boolean" or (kind == "String" and info.choices is None) else describe_range(info)
-        lines.append(f"| `{f.name}` | {vrs[f.name]} | {kind} | {unit} | {_fmt(f.default)} | {allowed} | "
-                     f"{info.description} |")
+              _HEADER, _RULE]
+    lines += [_param_row(f.name, f.default, info, vrs) for f, info in declared_fields(spec.config_class) if info.fmu]
+    groups, choices = _groups(spec), ChoiceIndices(spec.config_class).parameters()
+    if groups or choices:
+        lines += ["", "## Numeric configuration", "",
+                  "For hosts that cannot set String parameters (OMSimulator applies only Real, Integer and Boolean "
+                  "start values): numeric parameters that stand in for the String ones. "
+                  + _markdown(" ".join((_precedence(spec), " ".join(ChoiceIndices.__doc__.split("\n\n")[1].split())))),
+                  ""]
+    if choices:
+        lines += ["", "### Choices as numbers", "", _HEADER, _RULE]
+        lines += [_param_row(name, start, info, vrs) for name, start, info in choices]
+    for group in groups:
+        params = group.parameters()
+        first, last = vrs[params[0][0]], vrs[params[-1][0]]
+        if group.prefix in _SHARED_GROUPS:
+            lines += ["", f"- `{group.prefix}.*` (value references {first}-{last}): every field of "
+                      f"[the {group.prefix} parameters]({group.prefix}-parameters.md), start values those of the "
+                      f"default `{spec.config_class.__dataclass_fields__[group.prefix].default}`."]
+        else:
+            lines += ["", f"### `{group.prefix}.*`", "", _HEADER, _RULE]
+            lines += [_param_row(name, start, info, vrs) for name, start, info in params]
     lines += ["", "Value reference 0 is `_port_buffer`, a local String the FMU's native binary reads "
               "(not for users)."]
     return "\n".join(lines).rstrip() + "\n"
+
+
+_HEADER, _RULE = "| name | vr | type | unit | default | allowed | description |", "|---|---:|---|---|---|---|---|"
+
+_SHARED_GROUPS = ("vehicle",)
+"""Groups documented once on their own page (``<prefix>-parameters.md``), not on every FMU's."""
+
+
+def _param_cells(default, info) -> tuple[str, str, str, str, str]:
+    """Type, unit, default, allowed range and description of a parameter."""
+    kind = {bool: "Boolean", int: "Integer", float: "Real", str: "String"}[type(default)]
+    unit = "" if kind != "Real" or info.unit == "1" else info.unit
+    allowed = "" if kind == "Boolean" or (kind == "String" and info.choices is None) else describe_range(info)
+    return kind, unit, _fmt(default), allowed, info.description
+
+
+def _param_row(name: str, default, info, vrs) -> str:
+    kind, unit, start, allowed, description = _param_cells(default, info)
+    return f"| `{name}` | {vrs[name]} | {kind} | {unit} | {start} | {allowed} | {description} |"
+
+
+def _groups(spec: FmuSpec) -> tuple:
+    return tuple(getattr(spec.config_class, "parameter_groups", tuple)())
+
+
+def _precedence(spec: FmuSpec) -> str:
+    """The precedence rules: the docstrings of the config's ``with_parameter_groups`` (first paragraphs)."""
+    texts = []
+    for cls in spec.config_class.__mro__:
+        method = cls.__dict__.get("with_parameter_groups")
+        if method is not None and method.__doc__:
+            paragraphs = [p for p in method.__doc__.split("\n\n") if p.strip()]
+            texts.append(" ".join(" ".join(paragraphs[1].split()).split("\n")) if len(paragraphs) > 1 else "")
+    return " ".join(t for t in reversed(texts) if t)
+
+
+def _shared_group_page(prefix: str) -> str:
+    from ..vehicles import load_vehicle, vehicle_names
+    group = next(g for spec in CATALOGUE.values() for g in _groups(spec) if g.prefix == prefix)
+    names = vehicle_names()
+    vehicles = [load_vehicle(n) for n in names]
+    lines = [f"# The {prefix} parameters", "",
+             f"Every FMU that takes a vehicle has these numeric parameters `{prefix}.<field>` besides the String "
+             "`vehicle` (a bundled name or a TOML file) and `vehicle_overrides`. Their start values are those of "
+             "the FMU's default vehicle (named on its page); the values of every bundled vehicle are below.", "",
+             "| name | type | unit | allowed | description | " + " | ".join(f"`{n}`" for n in names) + " |",
+             "|---|---|---|---|---|" + "---:|" * len(names)]
+    for name, start, info in group.parameters():
+        kind, unit, _, allowed, description = _param_cells(start, info)
+        values = (_fmt(getattr(v, name[len(prefix) + 1:])) for v in vehicles)
+        lines.append(f"| `{name}` | {kind} | {unit} | {allowed} | {description} | " + " | ".join(values) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def _index() -> str:
@@ -107,17 +172,21 @@ def _index() -> str:
              "ports follow the I/O contract (see [the user guide](../user-guide.md)).", "",
              "| FMU | role | inputs | outputs | parameters | implements |", "|---|---|---:|---:|---:|---|"]
     for spec in sorted(CATALOGUE.values(), key=lambda s: (ROLES.index(s.role), s.name)):
-        n_par = sum(1 for _, info in declared_fields(spec.config_class) if info.fmu)
+        n_par = sum(1 for _, info in declared_fields(spec.config_class) if info.fmu) + sum(
+            len(g.parameters()) for g in (ChoiceIndices(spec.config_class), *_groups(spec)))
         doc = importlib.import_module(spec.model_class.__module__).__doc__ or ""
         first = _markdown(doc.split("\n\n")[0]).replace("\n", " ")
         lines.append(f"| [{spec.name}]({spec.name}.md) | {spec.role} | {len(spec.inputs)} | {len(spec.outputs)} | "
                      f"{n_par} | {first} |")
+    lines += ["", "Shared numeric parameters: " + ", ".join(f"[`{p}.*`]({p}-parameters.md)" for p in _SHARED_GROUPS)
+              + " (every FMU that takes a vehicle)."]
     return "\n".join(lines) + "\n"
 
 
 def fmu_pages() -> dict[str, str]:
     """File name -> Markdown of every generated page (``index.md`` and one per FMU)."""
     pages = {"index.md": _index()}
+    pages.update({f"{prefix}-parameters.md": _shared_group_page(prefix) for prefix in _SHARED_GROUPS})
     pages.update({f"{name}.md": _page(spec) for name, spec in sorted(CATALOGUE.items())})
     return pages
 

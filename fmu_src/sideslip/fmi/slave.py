@@ -33,7 +33,8 @@ description, and this base does the rest:
 * lifecycle: the FMI 2.0 co-simulation states are enforced (a call in the wrong state, e.g.
   ``doStep`` after ``fmi2Terminate``, is refused with fmi2Error), and a ``doStep`` whose
   communication point is not the FMU's current time (a skipped or repeated interval) is refused
-  with fmi2Error and changes nothing;
+  with fmi2Error and changes nothing; a step size that differs from the previous one by rounding
+  only (:data:`STEP_ROUNDING`) is the previous one;
 * state: get/set/serialise FMU state writes every variable value and the library object
   (filter state, buffers, RNG) in the typed, checksummed format of :mod:`sideslip.fmi.state`
   (never pickle); restoring rebuilds the model from the state's parameters and then its data,
@@ -58,7 +59,7 @@ from pythonfmu.default_experiment import DefaultExperiment
 from pythonfmu.enums import Fmi2Initial, Fmi2Status
 
 from .. import __version__
-from ..params import ParameterError, build, declared_fields, describe_range
+from ..params import ChoiceIndices, ParameterError, build, declared_fields, describe_range
 from ..signals import signal
 from ..units import QUANTITIES, UNITS
 from . import state as fmu_state
@@ -72,6 +73,12 @@ _ERROR, _WARNING, _OK = Fmi2Status.error, Fmi2Status.warning, Fmi2Status.ok
 
 EPISODE_LOG_INTERVAL = 1.0
 """[s] of simulated time: a port's bad episodes are logged at most once per interval."""
+
+STEP_ROUNDING = 1e-9
+"""Relative difference below which a communication step is the previous one: a host that computes each
+step as the difference of two communication points (OMSimulator) passes 0.001 as 0.0009999999999998899 or
+0.0010000000000000009; the model takes the same step every time, so its results do not depend on the
+host's rounding."""
 
 _INSTANTIATED, _INITIALIZING, _STEPPING, _TERMINATED = "instantiated", "initialization mode", "step mode", "terminated"
 
@@ -168,6 +175,8 @@ class _TypedReal(Real):
     def to_xml(self) -> Element:
         node = super().to_xml()
         real = node.find("Real")
+        if real.get("start") is not None:              # exactly (pythonfmu writes 16 digits): hosts set it back
+            real.set("start", repr(float(self.start)))
         real.set("declaredType", self.quantity)
         real.set("unit", QUANTITIES[self.quantity])
         if self.display:
@@ -255,6 +264,7 @@ class SideslipSlave(Fmi2Slave):
         self._phase = _INSTANTIATED
         self._t0 = 0.0
         self._t = 0.0                    # the FMU's time: the communication point the next doStep starts at
+        self._h = 0.0                    # the step the model takes: the host's, unless it differs by rounding only
         buffer_var = String("_port_buffer", causality=Fmi2Causality.local, variability=Fmi2Variability.fixed,
                             initial=Fmi2Initial.calculated,
                             description="Internal: address and layout of the port buffer shared with the "
@@ -280,7 +290,12 @@ class SideslipSlave(Fmi2Slave):
                             if "valid" in self.model_class.output_names else None)
         for f, info in declared_fields(self.config_class):
             if info.fmu:
-                self._declare_param(f.name, f.default, info)
+                self._param_vr[f.name] = self._declare_param(f.name, f.default, info)
+        self._group_vr: dict[str, int] = {}          # numeric stand-ins of String configuration
+        self._choices = ChoiceIndices(self.config_class)
+        for group in (self._choices, *getattr(self.config_class, "parameter_groups", tuple)()):
+            for name, start, info in group.parameters():
+                self._group_vr[name] = self._declare_param(name, start, info)
         renew = String("_renew", causality=Fmi2Causality.local, variability=Fmi2Variability.discrete,
                        initial=Fmi2Initial.exact, start="",
                        description="Internal: set by the FMU's native binary to make this instance new again "
@@ -333,22 +348,21 @@ class SideslipSlave(Fmi2Slave):
             self._out_lo.append(lo)
             self._out_hi.append(hi)
 
-    def _declare_param(self, name: str, default, info) -> None:
+    def _declare_param(self, name: str, default, info) -> int:
+        """Declare a parameter (its start value ``default``); returns its value reference."""
         variability = Fmi2Variability.tunable if info.tunable else Fmi2Variability.fixed
         desc = info.description if isinstance(default, str) and info.choices is None else \
             f"{info.description} (allowed: {describe_range(info)})"
         common = dict(causality=Fmi2Causality.parameter, variability=variability, initial=Fmi2Initial.exact,
                       description=desc)
         if isinstance(default, bool):
-            vr = self._register(Boolean(name, **common), default, "Boolean")
-        elif isinstance(default, int):
-            vr = self._register(_BoundedInteger(name, info.min, info.max, **common), default, "Integer")
-        elif isinstance(default, str):
-            vr = self._register(String(name, **common), default, "String")
-        else:
-            vr = self._register(_TypedReal(name, info.quantity, info.min, info.max, None, **common),
-                                float(default), "Real")
-        self._param_vr[name] = vr
+            return self._register(Boolean(name, **common), default, "Boolean")
+        if isinstance(default, int):
+            return self._register(_BoundedInteger(name, info.min, info.max, **common), default, "Integer")
+        if isinstance(default, str):
+            return self._register(String(name, **common), default, "String")
+        return self._register(_TypedReal(name, info.quantity, info.min, info.max, None, **common), float(default),
+                              "Real")
 
     def _port_layout(self) -> str:
         """``_port_buffer`` value: magic, address (hex), first port vr, n_in, n_ports, the ``_renew``
@@ -444,7 +458,11 @@ class SideslipSlave(Fmi2Slave):
     def _build_model(self):
         """The library model of the current parameter values (validated; raises ParameterError)."""
         values = {name: self._vals[vr] for name, vr in self._param_vr.items()}
-        return self.make_model(build(self.config_class, values))
+        stand_ins = {name: self._vals[vr] for name, vr in self._group_vr.items()}
+        config = self._choices.apply(build(self.config_class, values), stand_ins)
+        if hasattr(config, "with_parameter_groups"):
+            config = config.with_parameter_groups(stand_ins)
+        return self.make_model(config)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         model = self.model
@@ -475,7 +493,10 @@ class SideslipSlave(Fmi2Slave):
                     self._end_episodes(0, self._n_in)
             self._last_in = u
             model.held_inputs = held
-            model.step(step_size, *u)
+            h = self._h
+            if abs(step_size - h) > STEP_ROUNDING * h:
+                self._h = h = step_size
+            model.step(h, *u)
             self._t = end
             self._ports[self._n_ports - 1] = held
             return self._write_outputs(model.outputs(), end)
@@ -641,7 +662,7 @@ class SideslipSlave(Fmi2Slave):
 
     # ------------------------------------------------------------------ FMU state
     _STATE_FIELDS = ("_last_in", "_bad", "_episodes", "_reported", "_suppressed", "_n_bad", "_warned", "_failed",
-                     "_phase", "_t0", "_t")
+                     "_phase", "_t0", "_t", "_h")
 
     def _get_fmu_state(self):
         """The state as bytes (:mod:`sideslip.fmi.state`); b"" and an error logged if it cannot be written."""

@@ -13,22 +13,47 @@ At standstill with zero target the brake holds the car.
 
 The driver also emits the scenario environment: friction ``mu``, bank angle and wind
 force/moment as time tables (the plant takes them as inputs).
+
+Numeric configuration (hosts that cannot set String parameters, e.g. OMSimulator): the Integer
+``maneuver_kind`` selects a maneuver (0: the String ``maneuver``; 1..n: :data:`MANEUVER_KINDS`)
+whose values are the parameters ``<maneuver>.<field>``; ``constant.road_mu`` and its siblings give
+the environment as constants while the String tables keep their defaults.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..model import Model
-from ..params import ParameterError, check, param
+from ..params import ParameterError, ParamGroup, check, format_assignments, param
 from ..constants import GRAVITY
 from ..signals import DRIVER_INPUTS, DRIVER_OUTPUTS
 from ..vehicles import VehicleConfig, VehicleParams
-from .maneuvers import TimeTable, parse_maneuver
+from .maneuvers import MANEUVERS, TimeTable, parse_maneuver
 
-__all__ = ["DriverConfig", "Driver"]
+__all__ = ["DriverConfig", "Driver", "ConstantEnvironment", "MANEUVER_KINDS"]
+
+MANEUVER_KINDS: tuple[str, ...] = tuple(MANEUVERS)
+"""Maneuvers by the number ``maneuver_kind`` selects (1 is the first)."""
+
+_TABLES = ("road_mu", "road_bank", "wind_force", "wind_moment")
+
+
+@dataclass(frozen=True)
+class ConstantEnvironment:
+    """The environment as constants: the numeric parameters ``constant.<field>`` of the driver FMU."""
+
+    road_mu: float = param(1.0, "FrictionCoefficient", "Road friction while the String road_mu is not set",
+                           ge=0.05, le=1.5)
+    road_bank: float = param(0.0, "Angle", "Road bank angle while the String road_bank is not set",
+                             ge=-0.5, le=0.5)
+    wind_force: float = param(0.0, "Force", "Lateral wind force while the String wind_force is not set",
+                              ge=-1e5, le=1e5)
+    wind_moment: float = param(0.0, "Torque", "Wind yaw moment while the String wind_moment is not set",
+                               ge=-1e6, le=1e6)
 
 
 @dataclass(frozen=True)
@@ -49,6 +74,9 @@ class DriverConfig(VehicleConfig):
     preview_min: float = param(6.0, "Length", "Minimum look-ahead distance", gt=0.5, le=100)
     steer_rate_max: float = param(math.radians(1000.0), "AngularVelocity", "Largest handwheel rate",
                                   gt=0, le=100)
+    maneuver_kind: int = param(0, "Dimensionless", "Maneuver from numeric parameters: 0 the String 'maneuver'; "
+                               + ", ".join(f"{i} {n} ({n}.*)" for i, n in enumerate(MANEUVER_KINDS, 1)),
+                               ge=0, le=len(MANEUVER_KINDS))
 
     def __post_init__(self):
         check(self)
@@ -59,6 +87,51 @@ class DriverConfig(VehicleConfig):
             raise ParameterError("road_mu", self.road_mu, "friction values in [0.05, 1.5]")
         if any(abs(v) > 0.5 for v in TimeTable(self.road_bank).values()):
             raise ParameterError("road_bank", self.road_bank, "bank angles in [-0.5, 0.5] rad")
+
+    STRING_STAND_INS = VehicleConfig.STRING_STAND_INS + ("maneuver",) + _TABLES
+
+    @classmethod
+    def parameter_groups(cls) -> tuple[ParamGroup, ...]:
+        """The vehicle's numeric parameters, ``constant.*`` and ``<maneuver>.*`` of every maneuver."""
+        return (*super().parameter_groups(), ParamGroup("constant", ConstantEnvironment),
+                *(ParamGroup(name, MANEUVERS[name]) for name in MANEUVER_KINDS))
+
+    def with_parameter_groups(self, values: dict) -> "DriverConfig":
+        """This configuration with the numeric parameters applied (see the module docstring).
+
+        Precedence: a String table set away from its default wins over ``constant.*``; ``maneuver_kind``
+        0 keeps the String ``maneuver``, 1..n builds the maneuver from its ``<maneuver>.*`` values. Every
+        numeric value is checked against its range, used or not (errors name the parameter).
+        """
+        cfg = super().with_parameter_groups(values)
+        constant, *maneuvers = self.parameter_groups()[len(super().parameter_groups()):]
+        fields = {f.name: f for f in dataclasses.fields(self)}
+        changes = {name: repr(value) for name, value in constant.changed(values).items()
+                   if getattr(self, name) == fields[name].default}
+        specs = [f"{group.prefix}:{format_assignments(group.values(values))}" for group in maneuvers]
+        if self.maneuver_kind:
+            changes["maneuver"] = specs[self.maneuver_kind - 1]
+        return dataclasses.replace(cfg, **changes) if changes else cfg
+
+    def numeric_parameters(self) -> dict:
+        """The numeric parameters that configure this driver without Strings.
+
+        Raises
+        ------
+        ParameterError
+            For a time table (friction, bank or wind that changes in time has no numeric form).
+        """
+        out = super().numeric_parameters()
+        constant, *maneuvers = self.parameter_groups()[len(super().parameter_groups()):]
+        for name in _TABLES:
+            table = TimeTable(getattr(self, name), name)
+            if len(set(table.values())) > 1:
+                raise ParameterError(name, getattr(self, name), "a constant for the numeric form (a time table has "
+                                     "none: set the String where the host can)")
+            out[f"{constant.prefix}.{name}"] = table(0.0)
+        maneuver = parse_maneuver(self.maneuver)
+        kind = next(i for i, group in enumerate(maneuvers, 1) if type(maneuver) is group.cls)
+        return {**out, "maneuver_kind": kind, **maneuvers[kind - 1].numbers(maneuver)}
 
 
 class Driver(Model):

@@ -21,7 +21,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from ..constants import GRAVITY
-from ..params import ParameterError, build, check, param, parse_assignments
+from ..params import ParameterError, ParamGroup, build, check, format_assignments, param, parse_assignments
 from ..plant.tires import MagicFormula
 
 __all__ = ["VehicleParams", "VehicleConfig", "load_vehicle", "vehicle_names", "vehicle_source"]
@@ -40,45 +40,45 @@ class VehicleParams:
 
     name: str = param("custom", "Dimensionless", "Vehicle name", fmu=False)
     # masses and inertias
-    m: float = param(1500.0, "Mass", "Total vehicle mass", gt=0)
-    m_s: float = param(1350.0, "Mass", "Sprung mass", gt=0)
-    m_uf: float = param(75.0, "Mass", "Front unsprung mass (axle)", ge=0)
-    m_ur: float = param(75.0, "Mass", "Rear unsprung mass (axle)", ge=0)
-    I_zz: float = param(2500.0, "MomentOfInertia", "Yaw moment of inertia", gt=0)
+    m: float = param(1500.0, "Mass", "Total vehicle mass", gt=0, le=1e5)
+    m_s: float = param(1350.0, "Mass", "Sprung mass", gt=0, le=1e5)
+    m_uf: float = param(75.0, "Mass", "Front unsprung mass (axle)", ge=0, le=1e4)
+    m_ur: float = param(75.0, "Mass", "Rear unsprung mass (axle)", ge=0, le=1e4)
+    I_zz: float = param(2500.0, "MomentOfInertia", "Yaw moment of inertia", gt=0, le=1e6)
     I_xx: float = param(500.0, "MomentOfInertia", "Roll moment of inertia of the sprung mass about its CG",
-                         gt=0)
-    I_xz: float = param(0.0, "MomentOfInertia", "Yaw/roll product of inertia of the sprung mass")
+                         gt=0, le=1e6)
+    I_xz: float = param(0.0, "MomentOfInertia", "Yaw/roll product of inertia of the sprung mass", ge=-1e5, le=1e5)
     # geometry
-    l_f: float = param(1.2, "Length", "CG to front axle", gt=0)
-    l_r: float = param(1.5, "Length", "CG to rear axle", gt=0)
-    l_fs: float = param(1.2, "Length", "Sprung-mass CG to front axle", gt=0)
-    l_rs: float = param(1.5, "Length", "Sprung-mass CG to rear axle", gt=0)
-    t_f: float = param(1.55, "Length", "Front track width", gt=0)
-    t_r: float = param(1.55, "Length", "Rear track width", gt=0)
-    h_cg: float = param(0.55, "Length", "Height of the vehicle CG", gt=0)
-    h_s: float = param(0.45, "Length", "Sprung-mass CG above the roll axis", ge=0)
-    h_uf: float = param(0.3, "Length", "Height of the front unsprung-mass CG", ge=0)
-    h_ur: float = param(0.3, "Length", "Height of the rear unsprung-mass CG", ge=0)
+    l_f: float = param(1.2, "Length", "CG to front axle", gt=0, le=10)
+    l_r: float = param(1.5, "Length", "CG to rear axle", gt=0, le=10)
+    l_fs: float = param(1.2, "Length", "Sprung-mass CG to front axle", gt=0, le=10)
+    l_rs: float = param(1.5, "Length", "Sprung-mass CG to rear axle", gt=0, le=10)
+    t_f: float = param(1.55, "Length", "Front track width", gt=0, le=5)
+    t_r: float = param(1.55, "Length", "Rear track width", gt=0, le=5)
+    h_cg: float = param(0.55, "Length", "Height of the vehicle CG", gt=0, le=5)
+    h_s: float = param(0.45, "Length", "Sprung-mass CG above the roll axis", ge=0, le=5)
+    h_uf: float = param(0.3, "Length", "Height of the front unsprung-mass CG", ge=0, le=5)
+    h_ur: float = param(0.3, "Length", "Height of the rear unsprung-mass CG", ge=0, le=5)
     # suspension
-    K_phi_f: float = param(60000.0, "RollStiffness", "Front roll stiffness", gt=0)
-    K_phi_r: float = param(45000.0, "RollStiffness", "Rear roll stiffness", gt=0)
-    C_phi_f: float = param(4000.0, "RollDamping", "Front roll damping", ge=0)
-    C_phi_r: float = param(3000.0, "RollDamping", "Rear roll damping", ge=0)
+    K_phi_f: float = param(60000.0, "RollStiffness", "Front roll stiffness", gt=0, le=1e7)
+    K_phi_r: float = param(45000.0, "RollStiffness", "Rear roll stiffness", gt=0, le=1e7)
+    C_phi_f: float = param(4000.0, "RollDamping", "Front roll damping", ge=0, le=1e6)
+    C_phi_r: float = param(3000.0, "RollDamping", "Rear roll damping", ge=0, le=1e6)
     # wheels and tires
-    R_w: float = param(0.31, "Length", "Effective rolling radius", gt=0)
-    I_w: float = param(1.2, "MomentOfInertia", "Spin inertia of one wheel (incl. driveline share)", gt=0)
+    R_w: float = param(0.31, "Length", "Effective rolling radius", gt=0, le=2)
+    I_w: float = param(1.2, "MomentOfInertia", "Spin inertia of one wheel (incl. driveline share)", gt=0, le=100)
     C_sigma: float = param(90000.0, "Force", "Tire longitudinal slip stiffness (per tire, N per unit slip)",
-                           gt=0)
+                           gt=0, le=1e7)
     C_alpha_f: float = param(60000.0, "CorneringStiffness", "Front tire cornering stiffness at mu >= 1",
-                             gt=0)
+                             gt=0, le=1e7)
     C_alpha_r: float = param(60000.0, "CorneringStiffness", "Rear tire cornering stiffness at mu >= 1",
-                             gt=0)
+                             gt=0, le=1e7)
     mu_lo: float = param(0.3, "FrictionCoefficient", "Friction at which the *_lo cornering stiffnesses hold",
                          gt=0, lt=1)
     C_alpha_f_lo: float = param(60000.0, "CorneringStiffness",
-                                "Front tire cornering stiffness at mu = mu_lo (linear in mu between)", gt=0)
+                                "Front tire cornering stiffness at mu = mu_lo (linear in mu between)", gt=0, le=1e7)
     C_alpha_r_lo: float = param(60000.0, "CorneringStiffness",
-                                "Rear tire cornering stiffness at mu = mu_lo (linear in mu between)", gt=0)
+                                "Rear tire cornering stiffness at mu = mu_lo (linear in mu between)", gt=0, le=1e7)
     eps_v: float = param(0.0, "Slowness", "Dugoff velocity effect factor (friction drop per sliding speed)",
                          ge=0, le=0.2)
     # Magic Formula 5.2 subset (sideslip.plant.tires; the plant's tire_model 1): shape, peak, combined slip
@@ -106,13 +106,13 @@ class VehicleParams:
     mf_rCy1: float = param(1.05, "Dimensionless", "Magic Formula: combined slip, Fy reduction shape", gt=0, le=2)
     # estimator-side nominal values (axle)
     C_f_nominal: float = param(120000.0, "CorneringStiffness", "Nominal front-axle cornering stiffness at mu ~ 1 "
-                               "(what the papers' filters assume)", gt=0)
+                               "(what the papers' filters assume)", gt=0, le=2e7)
     C_r_nominal: float = param(120000.0, "CorneringStiffness", "Nominal rear-axle cornering stiffness at mu ~ 1",
-                               gt=0)
+                               gt=0, le=2e7)
     C_f_nominal_lo: float = param(120000.0, "CorneringStiffness", "Nominal front-axle cornering stiffness at "
-                                  "mu = mu_lo", gt=0)
+                                  "mu = mu_lo", gt=0, le=2e7)
     C_r_nominal_lo: float = param(120000.0, "CorneringStiffness", "Nominal rear-axle cornering stiffness at "
-                                  "mu = mu_lo", gt=0)
+                                  "mu = mu_lo", gt=0, le=2e7)
     # drivetrain, brakes, in-wheel motors
     steering_ratio: float = param(15.0, "Dimensionless", "Handwheel angle / road-wheel angle", gt=1, le=40)
     drive_split_front: float = param(1.0, "Dimensionless", "Share of drive torque on the front axle", ge=0, le=1)
@@ -120,12 +120,12 @@ class VehicleParams:
                                      ge=0, le=1)
     motor_axle: str = param("rear", "Dimensionless", "Axle carrying the in-wheel motors that realise Mz_dyc",
                             choices=("front", "rear"))
-    motor_T_max: float = param(800.0, "Torque", "Torque limit of one in-wheel motor", ge=0)
+    motor_T_max: float = param(800.0, "Torque", "Torque limit of one in-wheel motor", ge=0, le=1e5)
     motor_tau: float = param(0.01, "Time", "Time constant of the in-wheel motor torque response", ge=0, le=1)
     # resistances
     f_rr: float = param(0.012, "Dimensionless", "Rolling-resistance coefficient", ge=0, le=0.1)
-    CdA: float = param(0.7, "Area", "Aerodynamic drag area", ge=0)
-    rho_air: float = param(1.2, "Density", "Air density", gt=0)
+    CdA: float = param(0.7, "Area", "Aerodynamic drag area", ge=0, le=50)
+    rho_air: float = param(1.2, "Density", "Air density", gt=0, le=5)
 
     def __post_init__(self):
         check(self, prefix="vehicle.")
@@ -300,3 +300,35 @@ class VehicleConfig:
     def vehicle_params(self) -> VehicleParams:
         """The configured vehicle, loaded and validated (see :func:`load_vehicle`)."""
         return load_vehicle(self.vehicle, self.vehicle_overrides)
+
+    STRING_STAND_INS = ("vehicle", "vehicle_overrides")
+    """The String fields :meth:`numeric_parameters` expresses in numbers."""
+
+    @classmethod
+    def parameter_groups(cls) -> tuple[ParamGroup, ...]:
+        """The vehicle's values as numeric parameters ``vehicle.<field>`` (for hosts that cannot set
+        Strings), their start values the class's default vehicle's."""
+        default = cls.__dataclass_fields__["vehicle"].default
+        return (ParamGroup("vehicle", VehicleParams, dataclasses.asdict(load_vehicle(default))),)
+
+    def with_parameter_groups(self, values: dict) -> "VehicleConfig":
+        """This configuration with the numeric parameters of :meth:`parameter_groups` applied.
+
+        Precedence, lowest first: the vehicle file named by ``vehicle``; each numeric parameter
+        ``vehicle.<field>`` whose value differs from its start value (a host that writes every start
+        value back changes nothing); ``vehicle_overrides``.
+
+        Raises
+        ------
+        ParameterError
+            For a numeric value outside its range (named ``vehicle.<field>``).
+        """
+        changed = self.parameter_groups()[0].changed(values)
+        if not changed:
+            return self
+        merged = {**changed, **parse_assignments(self.vehicle_overrides, "vehicle_overrides")}
+        return dataclasses.replace(self, vehicle_overrides=format_assignments(merged))
+
+    def numeric_parameters(self) -> dict:
+        """The numeric parameters that configure this vehicle without Strings (every ``vehicle.<field>``)."""
+        return self.parameter_groups()[0].numbers(self.vehicle_params())
