@@ -1,8 +1,8 @@
 /*
- * fmi2_status_shim.c - the linux64 binary of every sideslip-fmu FMU.
+ * fmi2_status_shim.c - the linux64 and win64 binary of every sideslip-fmu FMU.
  *
  * It forwards every FMI 2.0 function to pythonfmu's export library (shipped next to it as
- * "pythonfmu_export.so") and adds what that library cannot do:
+ * "pythonfmu_export.so" / "pythonfmu_export.dll") and adds what that library cannot do:
  *
  *  0. Python for hosts that have none.  pythonfmu's library expects the host process to
  *     hold libpython (a C host fails with "undefined symbol: _Py_NoneStruct").  Before
@@ -15,6 +15,14 @@
  *     overrides them) and releases the GIL so that pythonfmu can take it from any thread.
  *     Inside a Python host (fmpy, ...) the interpreter is running and nothing changes.
  *     The build writes the build-time paths into "shim_config.h" (see sideslip/fmi/build.py).
+ *     On Windows (cross-compiled with mingw-w64; no build-time Python applies there) the
+ *     interpreter is python3X.dll of the FMUs' Python version, found in this order:
+ *     %SIDESLIP_FMU_LIBPYTHON% (the DLL's path), the Python the user configured (%PYTHONHOME%,
+ *     then the DLL search path, i.e. the Python put on PATH), then the Python launcher's
+ *     registry entries (HKCU, then HKLM, Software\Python\PythonCore\3.X\InstallPath).  Its
+ *     python3.dll (which pythonfmu's library imports) is loaded from the same folder, and its
+ *     folder is the home of the interpreter unless PYTHONHOME is set.  When none is found,
+ *     fmi2Instantiate logs what was tried and returns NULL.
  *
  *  1. Status.  pythonfmu maps every Python exception to fmi2Fatal (and frees the Python
  *     instance), so our Python code never raises; it logs with status fmi2Error or
@@ -56,11 +64,17 @@
  * Messages are forwarded unchanged (pythonfmu passes them as the format argument; the
  * Python side never emits '%').
  */
+#ifdef _WIN32
+#define _WIN32_WINNT 0x0601              /* Windows 7: RegGetValueA, SRW locks */
+#define WIN32_LEAN_AND_MEAN
+#include <windows.h>
+#else
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <libgen.h>
 #include <limits.h>
 #include <pthread.h>
+#endif
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -91,14 +105,85 @@
 #ifndef SIDESLIP_FMU_GUID
 #define SIDESLIP_FMU_GUID ""             /* the FMU's GUID (empty: not checked) */
 #endif
+#ifndef SIDESLIP_PY_VERSION
+#define SIDESLIP_PY_VERSION "3.11"       /* Windows: the Python version the FMUs need */
+#endif
+#ifndef SIDESLIP_PY_DLL
+#define SIDESLIP_PY_DLL "python311.dll"  /* Windows: its DLL */
+#endif
 
 #define STATE_MAGIC 0x53535354u          /* "SSST": a live FMU state of this shim */
 #define FRAME_MAGIC "SSFMU-STATE-FRAME"  /* serialised states */
 #define FRAME_VERSION 1u
 #define FRAME_HEAD (sizeof(FRAME_MAGIC) - 1 + 4 + 8 + 8)
 
-#define INNER_NAME "pythonfmu_export.so"
 #define PORT_MAGIC "sideslip-ports-v2:"
+
+/* ------------------------------------------------------------------ platform */
+#ifdef _WIN32
+#define INNER_NAME "pythonfmu_export.dll"
+typedef HMODULE lib_handle;
+typedef SRWLOCK shim_lock;
+#define SHIM_LOCK_INIT SRWLOCK_INIT
+static void lock_take(shim_lock *l) { AcquireSRWLockExclusive(l); }
+static void lock_give(shim_lock *l) { ReleaseSRWLockExclusive(l); }
+static void *lib_symbol(lib_handle h, const char *name) { return h ? (void *)GetProcAddress(h, name) : NULL; }
+static lib_handle lib_load(const char *path) {
+    /* a full path: its own folder first for its dependencies */
+    int full = strchr(path, '\\') || strchr(path, '/');
+    return LoadLibraryExA(path, NULL, full ? LOAD_WITH_ALTERED_SEARCH_PATH : 0);
+}
+static void lib_error(char *buf, size_t n) {
+    DWORD code = GetLastError();
+    DWORD m = FormatMessageA(FORMAT_MESSAGE_FROM_SYSTEM | FORMAT_MESSAGE_IGNORE_INSERTS, NULL, code, 0, buf,
+                             (DWORD)n, NULL);
+    while (m > 0 && (buf[m - 1] == '\n' || buf[m - 1] == '\r' || buf[m - 1] == ' ')) buf[--m] = '\0';
+    if (!m) snprintf(buf, n, "Windows error %lu", (unsigned long)code);
+}
+/* The folder of this DLL. */
+static int self_dir(char *buf, size_t n) {
+    HMODULE self;
+    if (!GetModuleHandleExA(GET_MODULE_HANDLE_EX_FLAG_FROM_ADDRESS | GET_MODULE_HANDLE_EX_FLAG_UNCHANGED_REFCOUNT,
+                            (LPCSTR)(void *)&self_dir, &self))
+        return 0;
+    DWORD m = GetModuleFileNameA(self, buf, (DWORD)n);
+    if (!m || m >= n) return 0;
+    char *slash = strrchr(buf, '\\');
+    if (slash) *slash = '\0';
+    return 1;
+}
+/* Stay loaded when the host unloads this DLL (see fmi2Instantiate). */
+static void pin_self(void) {
+    HMODULE self;
+    GetModuleHandleExA(GET_MODULE_HANDLE_EX_FLAG_FROM_ADDRESS | GET_MODULE_HANDLE_EX_FLAG_PIN,
+                       (LPCSTR)(void *)&pin_self, &self);
+}
+#else
+#define INNER_NAME "pythonfmu_export.so"
+typedef void *lib_handle;
+typedef pthread_mutex_t shim_lock;
+#define SHIM_LOCK_INIT PTHREAD_MUTEX_INITIALIZER
+static void lock_take(shim_lock *l) { pthread_mutex_lock(l); }
+static void lock_give(shim_lock *l) { pthread_mutex_unlock(l); }
+static void *lib_symbol(lib_handle h, const char *name) { return h ? dlsym(h, name) : NULL; }
+static lib_handle lib_load(const char *path) { return dlopen(path, RTLD_NOW | RTLD_LOCAL); }
+static void lib_error(char *buf, size_t n) { const char *e = dlerror(); snprintf(buf, n, "%s", e ? e : "unknown"); }
+/* The folder of this shared object. */
+static int self_dir(char *buf, size_t n) {
+    Dl_info info;
+    if (!dladdr((void *)&self_dir, &info) || !info.dli_fname) return 0;
+    char self[PATH_MAX];
+    snprintf(self, sizeof self, "%s", info.dli_fname);
+    snprintf(buf, n, "%s", dirname(self));
+    return 1;
+}
+/* Stay loaded when the host unloads this library (see fmi2Instantiate). */
+static void pin_self(void) {
+    Dl_info self;
+    if (dladdr((void *)&pin_self, &self) && self.dli_fname)
+        dlopen(self.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+}
+#endif
 
 typedef struct {
     fmi2Component inner;
@@ -124,7 +209,7 @@ static fmi2Status renew_inner(Shim *s);
 #define POOL_MAX 32
 static Shim *g_pool[POOL_MAX];
 static int g_pooled = 0;
-static pthread_mutex_t g_pool_lock = PTHREAD_MUTEX_INITIALIZER;
+static shim_lock g_pool_lock = SHIM_LOCK_INIT;
 
 typedef struct {                 /* an FMU state handed to the host */
     unsigned magic;
@@ -132,7 +217,7 @@ typedef struct {                 /* an FMU state handed to the host */
     fmi2FMUstate inner;          /* pythonfmu's state (a Python object) */
 } ShimState;
 
-static void *g_lib = NULL;
+static lib_handle g_lib = NULL;
 
 /* pythonfmu 0.7 destroys its interpreter guard twice at exit: a static shared_ptr's
  * destructor (run by exit()) frees it, then the library's destructor function
@@ -141,11 +226,15 @@ static void *g_lib = NULL;
  * corrupted unsorted chunks").  Calling the function from an exit handler registered after
  * the library was loaded runs it first: it empties the pointer and joins the guard's idle
  * thread (no Python call), so both later calls find nothing to destroy.  Registered by every
- * shim that loads the library (each FMU has its own copy), in any host. */
+ * shim that loads the library (each FMU has its own copy), in any host.  On Windows the order
+ * is already right (pythonfmu's DllMain calls the function before the library's static
+ * destructors run), so nothing is registered there. */
+#ifndef _WIN32
 static void release_inner_guard(void) {
-    void (*fin)(void) = g_lib ? (void (*)(void))dlsym(g_lib, "finalizePythonInterpreter") : NULL;
+    void (*fin)(void) = (void (*)(void))lib_symbol(g_lib, "finalizePythonInterpreter");
     if (fin) fin();
 }
+#endif
 
 #define INNER(name) static name##TYPE *p_##name = NULL;
 INNER(fmi2Instantiate) INNER(fmi2FreeInstance) INNER(fmi2SetupExperiment)
@@ -158,7 +247,7 @@ INNER(fmi2SetRealInputDerivatives) INNER(fmi2GetRealOutputDerivatives) INNER(fmi
 INNER(fmi2CancelStep) INNER(fmi2GetStatus) INNER(fmi2GetRealStatus) INNER(fmi2GetIntegerStatus)
 INNER(fmi2GetBooleanStatus) INNER(fmi2GetStringStatus)
 
-#define LOAD(name) p_##name = (name##TYPE *)dlsym(g_lib, #name); if (!p_##name) return #name;
+#define LOAD(name) p_##name = (name##TYPE *)lib_symbol(g_lib, #name); if (!p_##name) return #name;
 
 /* ------------------------------------------------------------------ the Python interpreter */
 typedef int (*py_int_fn)(void);
@@ -183,6 +272,99 @@ static const char SITE_CODE[] =
     "sys.path[:] = known[:pos] + new + known[pos:]\n"
     "del os, site, dirs, known, pos, new\n";
 
+#ifdef _WIN32
+static lib_handle g_python = NULL;       /* python3X.dll */
+static void *py_symbol(const char *name) { return lib_symbol(g_python, name); }
+
+/* Try one python3X.dll; on success keep it in g_python and its path in lib. */
+static int try_python(const char *path, char *lib, size_t n, char *tried, size_t tn) {
+    if (!path || !*path) return 0;
+    lib_handle h = lib_load(path);
+    if (!h) {
+        size_t used = strlen(tried);
+        snprintf(tried + used, tn - used, "%s%s", used ? ", " : "", path);
+        return 0;
+    }
+    g_python = h;
+    if (!GetModuleFileNameA(h, lib, (DWORD)n)) snprintf(lib, n, "%s", path);
+    return 1;
+}
+
+/* <InstallPath>\python3X.dll of a Python launcher registry entry (PEP 514), or "". */
+static void registry_python(HKEY root, char *out, size_t n) {
+    char key[160], dir[MAX_PATH];
+    DWORD size = sizeof dir;
+    out[0] = '\0';
+    snprintf(key, sizeof key, "Software\\Python\\PythonCore\\%s\\InstallPath", SIDESLIP_PY_VERSION);
+    if (RegGetValueA(root, key, NULL, RRF_RT_REG_SZ, NULL, dir, &size) == ERROR_SUCCESS && dir[0]) {
+        size_t len = strlen(dir);
+        snprintf(out, n, "%s%s%s", dir, dir[len - 1] == '\\' ? "" : "\\", SIDESLIP_PY_DLL);
+    }
+}
+
+/* Find python3X.dll (see the file comment); NULL and lib set on success, else why not. */
+static const char *find_python(char *lib, size_t n, char *err, size_t en) {
+    char tried[4096] = "", path[MAX_PATH + 32];
+    g_python = GetModuleHandleA(SIDESLIP_PY_DLL);           /* a Python host, or started before */
+    if (g_python) {
+        GetModuleFileNameA(g_python, lib, (DWORD)n);
+        return NULL;
+    }
+    const char *env = getenv("SIDESLIP_FMU_LIBPYTHON");
+    if (env && *env) {
+        if (try_python(env, lib, n, tried, sizeof tried)) return NULL;
+        snprintf(err, en, "no Python interpreter in this process, and SIDESLIP_FMU_LIBPYTHON (%s) cannot be loaded",
+                 env);
+        return err;
+    }
+    const char *home = getenv("PYTHONHOME");
+    if (home && *home) {
+        snprintf(path, sizeof path, "%s\\%s", home, SIDESLIP_PY_DLL);
+        if (try_python(path, lib, n, tried, sizeof tried)) return NULL;
+    }
+    if (try_python(SIDESLIP_PY_DLL, lib, n, tried, sizeof tried)) return NULL;   /* on PATH */
+    HKEY roots[2] = {HKEY_CURRENT_USER, HKEY_LOCAL_MACHINE};
+    for (int i = 0; i < 2; i++) {
+        registry_python(roots[i], path, sizeof path);
+        if (try_python(path, lib, n, tried, sizeof tried)) return NULL;
+    }
+    snprintf(err, en, "no Python %s found (tried %s; no Python launcher registry entry for %s could be loaded); "
+             "install Python %s (python.org, 64-bit) and the FMU's requirements (pythonfmu deploy -f X.fmu), "
+             "or set SIDESLIP_FMU_LIBPYTHON to the path of %s", SIDESLIP_PY_VERSION, tried, SIDESLIP_PY_VERSION,
+             SIDESLIP_PY_VERSION, SIDESLIP_PY_DLL);
+    return err;
+}
+
+/* python3.dll from the interpreter's folder (pythonfmu's library imports it), and that folder as the
+ * interpreter's home unless PYTHONHOME is set. */
+static const char *prepare_python(const char *lib, char *err, size_t en, char *home, size_t hn) {
+    char dir[MAX_PATH], stable[MAX_PATH + 16];
+    snprintf(dir, sizeof dir, "%s", lib);
+    char *slash = strrchr(dir, '\\');
+    if (slash) *slash = '\0';
+    if (!GetModuleHandleA("python3.dll")) {
+        snprintf(stable, sizeof stable, "%s\\python3.dll", dir);
+        if (!lib_load(stable)) {
+            char why[512];
+            lib_error(why, sizeof why);
+            snprintf(err, en, "found %s but cannot load python3.dll beside it (%s)", lib, why);
+            return err;
+        }
+    }
+    home[0] = '\0';
+    if (!getenv("PYTHONHOME")) snprintf(home, hn, "%s", dir);
+    return NULL;
+}
+
+static void set_python_home(const char *home) {
+    static wchar_t wide[MAX_PATH];                          /* Python keeps the pointer */
+    void (*set_home)(const wchar_t *) = (void (*)(const wchar_t *))py_symbol("Py_SetPythonHome");
+    if (set_home && MultiByteToWideChar(CP_ACP, 0, home, -1, wide, MAX_PATH) > 0) set_home(wide);
+}
+static void clear_python_home(void) {}
+#else
+static void *py_symbol(const char *name) { return dlsym(RTLD_DEFAULT, name); }
+
 static int same_file(const char *a, const char *b) {
     char ra[PATH_MAX], rb[PATH_MAX];
     return a && b && *a && *b && realpath(a, ra) && realpath(b, rb) && strcmp(ra, rb) == 0;
@@ -205,53 +387,73 @@ static void *open_first(const char *list, char *loaded, size_t n, char *tried, s
     return NULL;
 }
 
+/* Find libpython (see the file comment); NULL and lib set on success, else why not. */
+static const char *find_python(char *lib, size_t n, char *err, size_t en) {
+    py_int_fn is_init = (py_int_fn)dlsym(RTLD_DEFAULT, "Py_IsInitialized");
+    if (is_init) {                                          /* a Python host, or started before */
+        Dl_info info;
+        if (dladdr((void *)is_init, &info) && info.dli_fname) snprintf(lib, n, "%s", info.dli_fname);
+        return NULL;
+    }
+    const char *env = getenv("SIDESLIP_FMU_LIBPYTHON");
+    char candidates[4096], tried[4096] = "";
+    if (env && *env)
+        snprintf(candidates, sizeof candidates, "%s", env);
+    else
+        snprintf(candidates, sizeof candidates, "%s%s%s", SIDESLIP_BUILD_LIBPYTHON,
+                 *SIDESLIP_BUILD_LIBPYTHON ? ":" : "", SIDESLIP_PY_SONAMES);
+    if (!open_first(candidates, lib, n, tried, sizeof tried)) {
+        snprintf(err, en, "no Python interpreter in this process and no libpython could be loaded "
+                 "(tried %s%s); set SIDESLIP_FMU_LIBPYTHON to the path of libpython3.x.so",
+                 tried, env && *env ? " from SIDESLIP_FMU_LIBPYTHON" : "");
+        return err;
+    }
+    return NULL;
+}
+
+/* The build Python's prefix as home, only for its own library and only if the user set no PYTHONHOME. */
+static const char *prepare_python(const char *lib, char *err, size_t en, char *home, size_t hn) {
+    (void)err;
+    (void)en;
+    home[0] = '\0';
+    if (!getenv("PYTHONHOME") && *SIDESLIP_BUILD_HOME && same_file(lib, SIDESLIP_BUILD_LIBPYTHON))
+        snprintf(home, hn, "%s", SIDESLIP_BUILD_HOME);
+    return NULL;
+}
+
+static void set_python_home(const char *home) { setenv("PYTHONHOME", home, 1); }
+static void clear_python_home(void) { unsetenv("PYTHONHOME"); }   /* read once at start-up */
+#endif
+
 /* Make sure an initialised interpreter exists (see the file comment).  NULL on success, else
  * why not.  *note receives what was done (empty inside a Python host). */
 static const char *ensure_python(char *err, size_t n, char *note, size_t note_n) {
     note[0] = '\0';
-    py_int_fn is_init = (py_int_fn)dlsym(RTLD_DEFAULT, "Py_IsInitialized");
-    char lib[PATH_MAX] = "";
+    char lib[4096] = "", home[4096] = "";
+    const char *why = find_python(lib, sizeof lib, err, n);
+    if (why) return why;
+    py_int_fn is_init = (py_int_fn)py_symbol("Py_IsInitialized");
     if (!is_init) {
-        const char *env = getenv("SIDESLIP_FMU_LIBPYTHON");
-        char candidates[4096], tried[4096] = "";
-        if (env && *env)
-            snprintf(candidates, sizeof candidates, "%s", env);
-        else
-            snprintf(candidates, sizeof candidates, "%s%s%s", SIDESLIP_BUILD_LIBPYTHON,
-                     *SIDESLIP_BUILD_LIBPYTHON ? ":" : "", SIDESLIP_PY_SONAMES);
-        void *h = open_first(candidates, lib, sizeof lib, tried, sizeof tried);
-        if (!h) {
-            snprintf(err, n, "no Python interpreter in this process and no libpython could be loaded "
-                     "(tried %s%s); set SIDESLIP_FMU_LIBPYTHON to the path of libpython3.x.so",
-                     tried, env && *env ? " from SIDESLIP_FMU_LIBPYTHON" : "");
-            return err;
-        }
-        is_init = (py_int_fn)dlsym(h, "Py_IsInitialized");
-        if (!is_init) {
-            snprintf(err, n, "%s is not a Python library (no Py_IsInitialized)", lib);
-            return err;
-        }
-    } else {
-        Dl_info info;
-        if (dladdr((void *)is_init, &info) && info.dli_fname) snprintf(lib, sizeof lib, "%s", info.dli_fname);
+        snprintf(err, n, "%s is not a Python library (no Py_IsInitialized)", lib);
+        return err;
     }
     if (is_init()) return NULL;                    /* a Python host: change nothing */
 
-    py_initex_fn init_ex = (py_initex_fn)dlsym(RTLD_DEFAULT, "Py_InitializeEx");
-    py_run_fn run = (py_run_fn)dlsym(RTLD_DEFAULT, "PyRun_SimpleString");
-    py_ptr_fn save_thread = (py_ptr_fn)dlsym(RTLD_DEFAULT, "PyEval_SaveThread");
-    py_decode_fn decode = (py_decode_fn)dlsym(RTLD_DEFAULT, "PyUnicode_DecodeFSDefault");
-    py_setobj_fn sys_set = (py_setobj_fn)dlsym(RTLD_DEFAULT, "PySys_SetObject");
-    py_decref_fn decref = (py_decref_fn)dlsym(RTLD_DEFAULT, "Py_DecRef");
+    py_initex_fn init_ex = (py_initex_fn)py_symbol("Py_InitializeEx");
+    py_run_fn run = (py_run_fn)py_symbol("PyRun_SimpleString");
+    py_ptr_fn save_thread = (py_ptr_fn)py_symbol("PyEval_SaveThread");
+    py_decode_fn decode = (py_decode_fn)py_symbol("PyUnicode_DecodeFSDefault");
+    py_setobj_fn sys_set = (py_setobj_fn)py_symbol("PySys_SetObject");
+    py_decref_fn decref = (py_decref_fn)py_symbol("Py_DecRef");
     if (!init_ex || !run || !save_thread || !decode || !sys_set || !decref) {
         snprintf(err, n, "%s lacks the Python C API functions the FMU needs", lib);
         return err;
     }
-    /* The build Python's prefix, only for its own library and only if the user set none. */
-    int set_home = !getenv("PYTHONHOME") && *SIDESLIP_BUILD_HOME && same_file(lib, SIDESLIP_BUILD_LIBPYTHON);
-    if (set_home) setenv("PYTHONHOME", SIDESLIP_BUILD_HOME, 1);
+    why = prepare_python(lib, err, n, home, sizeof home);
+    if (why) return why;
+    if (*home) set_python_home(home);
     init_ex(0);                                    /* 0: leave the host's signal handlers alone */
-    if (set_home) unsetenv("PYTHONHOME");          /* read once at start-up; keep the host's env clean */
+    if (*home) clear_python_home();                /* keep the host's environment clean */
     const char *env_site = getenv("SIDESLIP_FMU_SITE_PACKAGES");
     const char *site = env_site ? env_site : SIDESLIP_BUILD_SITE;
     void *text = decode(site);
@@ -264,8 +466,8 @@ static const char *ensure_python(char *err, size_t n, char *note, size_t note_n)
     decref(text);
     save_thread();                                 /* pythonfmu takes the GIL with PyGILState_Ensure */
     snprintf(note, note_n, "sideslip-fmu: started Python from %s%s%s; site-packages added%s: %s", lib,
-             set_home ? " with PYTHONHOME=" : "", set_home ? SIDESLIP_BUILD_HOME : "",
-             env_site ? " (SIDESLIP_FMU_SITE_PACKAGES)" : "", *site ? site : "(none)");
+             *home ? " with PYTHONHOME=" : "", home, env_site ? " (SIDESLIP_FMU_SITE_PACKAGES)" : "",
+             *site ? site : "(none)");
     return NULL;
 }
 
@@ -273,16 +475,18 @@ static const char *ensure_python(char *err, size_t n, char *note, size_t note_n)
  * else a description of what failed. */
 static const char *load_inner(char *err, size_t n) {
     if (g_lib) return NULL;
-    Dl_info info;
-    if (!dladdr((void *)&load_inner, &info) || !info.dli_fname) return "dladdr failed";
-    char self[PATH_MAX];
-    strncpy(self, info.dli_fname, sizeof self - 1);
-    self[sizeof self - 1] = '\0';
-    char path[PATH_MAX];
-    snprintf(path, sizeof path, "%s/%s", dirname(self), INNER_NAME);
-    g_lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    char dir[4096], path[4200];
+    if (!self_dir(dir, sizeof dir)) return "cannot find the folder of the FMU's binary";
+#ifdef _WIN32
+    snprintf(path, sizeof path, "%s\\%s", dir, INNER_NAME);
+#else
+    snprintf(path, sizeof path, "%s/%s", dir, INNER_NAME);
+#endif
+    g_lib = lib_load(path);
     if (!g_lib) {
-        snprintf(err, n, "cannot load %s: %s", path, dlerror());
+        char why[1024];
+        lib_error(why, sizeof why);
+        snprintf(err, n, "cannot load %s: %s", path, why);
         return err;
     }
     LOAD(fmi2Instantiate) LOAD(fmi2FreeInstance) LOAD(fmi2SetupExperiment)
@@ -414,22 +618,22 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
                                           fmi2String fmuResourceLocation,
                                           const fmi2CallbackFunctions *functions, fmi2Boolean visible,
                                           fmi2Boolean loggingOn) {
-    static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
+    static shim_lock lock = SHIM_LOCK_INIT;
     static char note[8192];
     char err[8192];
-    pthread_mutex_lock(&lock);                     /* hosts may instantiate from several threads */
+    lock_take(&lock);                              /* hosts may instantiate from several threads */
     const char *why = g_lib ? NULL : ensure_python(err, sizeof err, note, sizeof note);
     int first = !g_lib;
     if (!why) why = load_inner(err, sizeof err);
     if (!why && first) {
+#ifndef _WIN32
         atexit(release_inner_guard);
+#endif
         /* stay loaded when the host unloads this library after fmi2FreeInstance (fmpy does): the
-         * instances kept for reuse (6) and the loaded pythonfmu library outlive a dlclose */
-        Dl_info self;
-        if (dladdr((void *)&fmi2Instantiate, &self) && self.dli_fname)
-            dlopen(self.dli_fname, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+         * instances kept for reuse (6) and the loaded pythonfmu library outlive the unload */
+        pin_self();
     }
-    pthread_mutex_unlock(&lock);
+    lock_give(&lock);
     if (!why && fmuType != fmi2CoSimulation)
         why = "this FMU is for Co-Simulation only; fmi2Instantiate was asked for Model Exchange";
     if (!why && *SIDESLIP_FMU_GUID && (!fmuGUID || strcmp(fmuGUID, SIDESLIP_FMU_GUID) != 0)) {
@@ -449,13 +653,13 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
     if (!functions) return NULL;
     const char *location = fmuResourceLocation ? fmuResourceLocation : "";
     Shim *s = NULL;
-    pthread_mutex_lock(&g_pool_lock);              /* a freed instance of the same location (6) */
+    lock_take(&g_pool_lock);              /* a freed instance of the same location (6) */
     for (int i = g_pooled - 1; i >= 0 && !s; i--)
         if (strcmp(g_pool[i]->location, location) == 0) {
             s = g_pool[i];
             g_pool[i] = g_pool[--g_pooled];
         }
-    pthread_mutex_unlock(&g_pool_lock);
+    lock_give(&g_pool_lock);
     int reused = s != NULL;
     if (!s) {
         s = (Shim *)calloc(1, sizeof(Shim));
@@ -505,10 +709,10 @@ FMI2_Export void fmi2FreeInstance(fmi2Component c) {
         s->worst = fmi2OK;
         fmi2Status st = renew_inner(s);            /* a fresh Python object; its logs go nowhere now */
         s->host.logger = NULL;
-        pthread_mutex_lock(&g_pool_lock);
+        lock_take(&g_pool_lock);
         int kept = st <= fmi2Warning && s->worst <= fmi2Warning && g_pooled < POOL_MAX;
         if (kept) g_pool[g_pooled++] = s;
-        pthread_mutex_unlock(&g_pool_lock);
+        lock_give(&g_pool_lock);
         if (kept) return;
     }
     s->host.logger = NULL;
