@@ -329,3 +329,50 @@ def test_a_vehicle_file_with_a_base_inherits_the_rest(harness, tmp_path):
     fmu = harness("VehiclePlant")
     fmu.init(vehicle=str(path), vx0=10.0)
     assert fmu.step(delta_f=0.01) == 0
+
+
+# ---------------------------------------------------------------- outputs within their ranges
+
+@pytest.mark.parametrize("name", FMUS)
+def test_outputs_stay_finite_and_within_their_declared_ranges_on_wild_inputs(harness, name):
+    """Inputs anywhere in their declared ranges (held 0.2 s each, a tenth of the segments at a bound):
+    every Real output stays finite and within its declared min/max at every step."""
+    import numpy as np
+
+    fmu = harness(name)
+    fmu.init()
+    rng = np.random.default_rng(11)
+    inputs = [v for v in fmu.md.modelVariables if v.causality == "input"]
+    outputs = [v for v in fmu.md.modelVariables if v.causality == "output" and v.type == "Real"]
+    bounds = {v.name: (float(v.min), float(v.max)) for v in outputs}
+    values = {}
+    for k in range(2000):
+        if k % 200 == 0:
+            for v in inputs:
+                if v.type == "Boolean":
+                    values[v.name] = bool(rng.integers(2))
+                else:
+                    lo, hi = float(v.min), float(v.max)
+                    values[v.name] = float(rng.choice([lo, hi]) if rng.random() < 0.1 else rng.uniform(lo, hi))
+        assert fmu.step(**values) == 0
+        for v, y in zip(outputs, fmu.get(*bounds)):
+            lo, hi = bounds[v.name]
+            assert math.isfinite(y) and lo <= y <= hi, (k, v.name, y)
+
+
+def test_a_heading_is_reported_wrapped_not_clamped(harness):
+    """Nguyen's yaw estimate turning more than half a lap without GPS: reported in (-pi, pi], not clamped
+    (a heading outside its range is an angle to wrap, not a failure)."""
+    import numpy as np
+
+    fmu = harness("Nguyen2012DACMRKF", logging=True)
+    fmu.init()
+    wheel = 15.0 / 0.31
+    yaw = []
+    for _ in range(15000):                                 # 15 s of turning: more than half a lap
+        fmu.step(yaw_rate_m=0.8, delta_m=0.05, omega_fl_m=wheel, omega_fr_m=wheel, omega_rl_m=wheel,
+                 omega_rr_m=wheel, ay_m=12.0, gps_valid=False, gps_fresh=False)
+        yaw.append(fmu.get("yaw_hat")[0])
+    yaw = np.array(yaw)
+    assert np.all(np.abs(yaw) <= math.pi) and np.unwrap(yaw)[-1] > 4.0 and yaw.min() < -2.0
+    assert not [m for _, m in fmu.messages if "yaw_hat" in m]

@@ -286,3 +286,14 @@ def test_omsimulator_program_runs_the_exported_ssp(omsimulator, fmu_dir, tmp_pat
     assert len(oms["time"]) == round(duration / 1e-3) and set(ref.names) <= set(oms.names)
     d = trajectory_difference(ref, _Columns({name: oms[name] for name in ref.names}))
     assert d["max_scaled"] <= TOL, f"{d['max_scaled_field']}: {d['max_scaled']:.3g}"
+
+
+def test_cli_runs_a_scenario_on_the_omsimulator_master(omsimulator, fmu_dir, tmp_path):
+    env = dict(os.environ, **{OMS_ENV: str(omsimulator)})
+    proc = subprocess.run([sys.executable, "-m", "sideslip", "--fmu-dir", str(fmu_dir), "run", "--scenario", "pi2011_high",
+                           "--estimator", "Pi2011FuzzyEKF", "--duration", "1", "--master", "omsimulator", "--out",
+                           str(tmp_path)], capture_output=True, text=True, timeout=600, env=env)
+    assert proc.returncode == 0, (proc.stdout + proc.stderr)[-3000:]
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    assert metrics["master"] == "omsimulator" and metrics["scheme"] == "jacobi"
+    assert (tmp_path / "sideslip.png").is_file() and "Pi2011FuzzyEKF" in metrics["estimators"]

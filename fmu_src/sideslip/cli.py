@@ -7,8 +7,8 @@ real-time factor; ``paper`` reproduces a paper's result tables with the FMUs (di
 :data:`sideslip.studies.papers.PAPERS`); ``control`` evaluates the yaw-moment controller;
 ``benchmark`` scores every estimator on the benchmark's cases (:mod:`sideslip.studies.benchmark`);
 ``replay`` runs estimator FMUs on a recorded drive (:mod:`sideslip.studies.logs`);
-``export-ssp`` writes a scenario's closed loop as an SSP 1.0 package; ``run --master libcosim``
-runs it with libcosim; ``docs`` writes the per-FMU reference pages.  FMUs are built on first
+``export-ssp`` writes a scenario's closed loop as an SSP 1.0 package; ``run --master libcosim`` or
+``--master omsimulator`` runs the loop in another master; ``docs`` writes the per-FMU reference pages.  FMUs are built on first
 use (``build/fmus``).
 """
 from __future__ import annotations
@@ -250,8 +250,9 @@ def main(argv=None) -> int:
         sp.add_argument("--set", action="append", metavar="KEY=VALUE",
                         help="scenario override: duration, road_mu, maneuver_<key>, sensor_<key>, ...")
         sp.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE", help="FMU parameter override")
-        sp.add_argument("--master", choices=("fmpy", "libcosim"), default="fmpy",
-                        help="co-simulation master (libcosim: pip install libcosimpy; Jacobi)")
+        sp.add_argument("--master", choices=("fmpy", "libcosim", "omsimulator"), default="fmpy",
+                        help="co-simulation master (libcosim: pip install libcosimpy; omsimulator: set "
+                             "SIDESLIP_OMSIMULATOR to its install folder; both Jacobi)")
         sp.add_argument("--scheme", choices=("gauss-seidel", "jacobi"), default="gauss-seidel",
                         help="coupling scheme of the fmpy master")
 

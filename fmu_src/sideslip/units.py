@@ -14,7 +14,12 @@ from dataclasses import dataclass, field
 
 from .constants import STANDARD_GRAVITY
 
-__all__ = ["Unit", "UNITS", "QUANTITIES", "LOG_UNITS", "unit_of_quantity", "si_factor"]
+__all__ = ["Unit", "UNITS", "QUANTITIES", "LOG_UNITS", "unit_of_quantity", "si_factor", "wrap_angle"]
+
+
+def wrap_angle(angle: float) -> float:
+    """An angle wrapped to (-pi, pi] [rad]: headings on ports are reported so."""
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
 @dataclass(frozen=True)

@@ -132,6 +132,7 @@ def run_omsimulator(components, connections=(), duration: float = 1.0, step: flo
             wall0 = time.perf_counter()
             call(capi.simulate(model), "simulate")
             wall = time.perf_counter() - wall0
+            n = int(round(duration / step))
             call(capi.terminate(model), "terminate")
         finally:
             capi.delete(model)
@@ -141,11 +142,12 @@ def run_omsimulator(components, connections=(), duration: float = 1.0, step: flo
     data = {"time": columns["time"]}
     data.update({name: columns[name].astype(bool) if kind == "Boolean" else columns[name]
                  for name, kind in outputs.items()})
-    return Results.from_columns(data, meta={"master": "omsimulator", "scheme": "jacobi", "step": step, "wall_time": wall,
-                               "components": [{"name": c.name, "fmu": c.fmu, "parameters": numeric_parameters(c)}
-                                              for c in components],
-                               "connections": [f"{s[0]}.{s[1]} -> {d[0]}.{d[1]}" for d, s in links.items()],
-                               "unconnected_inputs": list(unconnected)})
+    meta = {"master": "omsimulator", "scheme": "jacobi", "step": step, "wall_time": wall,
+            "real_time_factor": n * step / wall if wall > 0 else float("inf"), "us_per_step": wall / max(n, 1) * 1e6,
+            "components": [{"name": c.name, "fmu": c.fmu, "parameters": numeric_parameters(c)} for c in components],
+            "connections": [f"{s[0]}.{s[1]} -> {d[0]}.{d[1]}" for d, s in links.items()],
+            "unconnected_inputs": list(unconnected), "messages": []}
+    return Results.from_columns(data, meta)
 
 
 def _read_mat(path: Path) -> dict[str, np.ndarray]:

@@ -70,6 +70,7 @@ import numpy as np
 from ..bicycle import BicycleModel
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
+from ..units import wrap_angle
 from .base import input_enum
 from .delay import DelayLine, GpsLatency
 from .discrete import SpeedCache, euler, zoh
@@ -181,7 +182,7 @@ class Nguyen2012DACMRKF(ProfiledEstimator):
         self.yaw = self.d1 = self.d2 = 0.0
 
     def _extras(self) -> tuple:
-        return (self.yaw, self.d1, self.d2, self.bias, self._latency.value if self.hardened else 0.0)
+        return (wrap_angle(self.yaw), self.d1, self.d2, self.bias, self._latency.value if self.hardened else 0.0)
 
     def _sample(self, u):
         if self.hardened:

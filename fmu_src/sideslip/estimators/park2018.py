@@ -70,6 +70,7 @@ from ..bicycle import axle_forces
 from ..constants import GRAVITY
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
+from ..units import wrap_angle
 from .base import beta_std, input_enum, lowpass
 from .delay import CourseDelay, DelayLine
 from .hardening import InnovationMonitor, LinearTireConfig, ModelTrust, ProfiledEstimator
@@ -343,7 +344,7 @@ class Park2018Observer(ProfiledEstimator):
             self._outage = 0.0
 
     def _extras(self) -> tuple:
-        return (self.yaw, self.Cf, self.Cr, self.K, self.b_x, self.b_y, self.b_r, self.b_R,
+        return (wrap_angle(self.yaw), self.Cf, self.Cr, self.K, self.b_x, self.b_y, self.b_r, self.b_R,
                 self.beta_bic, self.beta_kin, self.beta_ol)
 
     # ---------------------------------------------------------------- one sample

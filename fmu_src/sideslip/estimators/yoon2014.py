@@ -79,6 +79,7 @@ from ..geomagnetic import earth_field
 from ..constants import GRAVITY
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
+from ..units import wrap_angle
 from .base import beta_std, input_enum
 from .hardening import GpsLatencyConfig, InnovationMonitor, ProfiledConfig, ProfiledEstimator
 from .baselines import BicycleObserverConfig, LinearBicycleObserver
@@ -241,7 +242,7 @@ class Yoon2014DualKF(ProfiledEstimator):
             self._outage = 0.0
 
     def _extras(self) -> tuple:
-        return (self.yaw, self.roll, float(self.kf.x[Sd.BX]), float(self.kf.x[Sd.BY]), self.delay,
+        return (wrap_angle(self.yaw), self.roll, float(self.kf.x[Sd.BX]), float(self.kf.x[Sd.BY]), self.delay,
                 1.0 if self.disturbed else 0.0)
 
     # ---------------------------------------------------------------- heading EKF (eqs 20-23)

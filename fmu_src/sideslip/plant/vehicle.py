@@ -21,6 +21,7 @@ from ..constants import GRAVITY
 from ..model import Model
 from ..params import check, param
 from ..signals import PLANT_INPUTS, PLANT_OUTPUTS
+from ..units import wrap_angle
 from ..vehicles import VehicleConfig, VehicleParams
 from .dynamics import N_STATES, PlantInputs, PlantModel, St
 
@@ -52,11 +53,6 @@ class PlantConfig(VehicleConfig):
 
     def __post_init__(self):
         check(self)
-
-
-def _wrap(angle: float) -> float:
-    """Wrap an angle to (-pi, pi]."""
-    return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
 class VehiclePlant(Model):
@@ -169,7 +165,7 @@ class VehiclePlant(Model):
             k4 = deriv([a + hs * b for a, b in zip(x, k3)], held, dT_end)
             x = [a + h6 * (b1 + 2.0 * (b2 + b3) + b4) for a, b1, b2, b3, b4 in zip(x, k1, k2, k3, k4)]
             dT = dT_end
-        x[_PSI] = _wrap(x[_PSI])
+        x[_PSI] = wrap_angle(x[_PSI])
         self.x = x
         self.dT_motor = dT
         self._out = self._outputs_at(x, held)

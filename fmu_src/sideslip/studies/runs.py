@@ -1,7 +1,7 @@
 """Runs of a scenario: one closed loop of FMUs, many on the job runner, or the library loop without FMI.
 
 * :func:`run_scenario` - a scenario's loop (:func:`~sideslip.cosim.assembly.scenario_components`)
-  on the fmpy or the libcosim master, with the estimators' metrics and, optionally, the files
+  on the fmpy, the libcosim or the OMSimulator master, with the estimators' metrics and, optionally, the files
   ``results.csv``, ``metrics.json`` and ``sideslip.png``;
 * :func:`run_jobs` - many such runs on :mod:`sideslip.studies.jobs` (the FMUs built once first);
 * :func:`run_library` - the same loop with the library classes instead of FMUs.
@@ -61,9 +61,10 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
         Record every n-th step.
     overrides : dict, optional
         Scenario overrides (``maneuver_<key>``, ``sensor_<key>``, fields).
-    master : {"fmpy", "libcosim"}
-        The project's fmpy master, or DNV's libcosim (:mod:`sideslip.cosim.libcosim_master`;
-        Jacobi scheme, every step recorded, rows from ``t = step``).
+    master : {"fmpy", "libcosim", "omsimulator"}
+        The project's fmpy master, DNV's libcosim (:mod:`sideslip.cosim.libcosim_master`) or
+        OpenModelica's OMSimulator (:mod:`sideslip.cosim.omsimulator_master`, numeric parameters
+        only); both Jacobi, every step recorded, rows from ``t = step``.
     scheme : {"gauss-seidel", "jacobi"}
         Coupling scheme of the fmpy master (libcosim is always Jacobi).
     """
@@ -76,11 +77,15 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
         from ..cosim.libcosim_master import run_libcosim
 
         res = run_libcosim(comps, conns, duration=run_for, step=step, fmu_dir=fmu_dir)
+    elif master == "omsimulator":
+        from ..cosim.omsimulator_master import run_omsimulator
+
+        res = run_omsimulator(comps, conns, duration=run_for, step=step, fmu_dir=fmu_dir)
     elif master == "fmpy":
         with CoSimulation(comps, conns, step=step, record_every=record_every, fmu_dir=fmu_dir, scheme=scheme) as sim:
             res = sim.run(run_for, progress=progress)
     else:
-        raise ValueError(f"master must be 'fmpy' or 'libcosim', got {master!r}")
+        raise ValueError(f"master must be 'fmpy', 'libcosim' or 'omsimulator', got {master!r}")
     wall = time.perf_counter() - t0
     metrics = {"scenario": {"name": sc.name, "description": sc.description, "source": sc.source,
                             "vehicle": sc.vehicle, "maneuver": sc.maneuver, "road_mu": sc.road_mu,
