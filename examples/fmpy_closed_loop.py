@@ -3,7 +3,6 @@
 Shows the three things a script needs: components with parameters, the run, and the recorded
 fields ``<instance>.<variable>``.  Connections are made by equal names.
 """
-import math
 
 import numpy as np
 

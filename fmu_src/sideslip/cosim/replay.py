@@ -19,7 +19,7 @@ import numpy as np
 
 from ..fmi.build import DEFAULT_OUT
 from ..recording import LogError, OPTIONAL_INPUTS, Recording
-from .assembly import Component, MasterError, fmu_paths
+from .assembly import MasterError, fmu_paths
 from .master import _Instance
 from .results import Results
 
