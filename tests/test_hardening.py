@@ -8,7 +8,8 @@ import pytest
 from sideslip.estimators import ESTIMATORS
 from sideslip.estimators.base import RESTART_STD, Estimator, EstimatorConfig
 from sideslip.estimators.delay import IDENTIFIED_STD, CourseDelay, GpsLatency
-from sideslip.estimators.hardening import InnovationMonitor, ProfiledConfig, ProfiledEstimator, model_sideslip_std
+from sideslip.estimators.hardening import (InnovationMonitor, KinematicCheck, ProfiledConfig, ProfiledEstimator,
+                                          model_sideslip_std)
 from sideslip.params import build
 from sideslip.recording import replay
 from sideslip.scenarios import get_scenario
@@ -197,3 +198,45 @@ def test_gps_latency_prior_until_identified_and_its_course_noise():
     assert lat.course_variance(0.4) == pytest.approx((0.4 * 0.1) ** 2)
     _feed(lat, 0.2, turning=True)
     assert lat.value == pytest.approx(0.2, abs=0.01) and lat.std == IDENTIFIED_STD
+
+
+def _kinematic_drive(ts: float = 0.01, duration: float = 12.0, slide_at: float | None = None):
+    """A sine steer at 15 m/s (sideslip 1 deg, yaw rate 0.2 rad/s at 0.3 Hz) seen by a body-fixed accelerometer
+    with a 0.25 m/s2 offset and a road bank's 0.5 m/s2, and a gyro 0.01 rad/s off; from ``slide_at`` the car
+    slides by 5 deg in 1 s.  Returns time, true sideslip, measured a_y and yaw rate."""
+    t = np.arange(0.0, duration, ts)
+    vx, w = 15.0, 2 * np.pi * 0.3
+    beta = 1.0 * DEG * np.sin(w * t)
+    if slide_at is not None:
+        beta = beta - 5.0 * DEG * np.clip(t - slide_at, 0.0, 1.0)
+    r = 0.2 * np.sin(w * t + 0.3)
+    ay = vx * (np.gradient(beta, ts) + r)              # a_y = v_x (beta' + r) at constant speed
+    return t, beta, ay + 0.25 + 0.5, r + 0.01
+
+
+def test_kinematic_check_passes_offsets_and_a_bank_and_sees_a_slide_the_estimate_misses():
+    ts = 0.01
+    t, beta, ay, r = _kinematic_drive(ts)
+    follow = KinematicCheck(ts)                        # an estimate that follows the sideslip
+    assert max(follow.update(beta[k], 15.0, r[k], ay[k]) for k in range(len(t))) == 0.0
+    t, beta, ay, r = _kinematic_drive(ts, slide_at=6.0)
+    stuck = KinematicCheck(ts)                         # the linear model's: the slide is not in it
+    sigma = np.array([stuck.update(1.0 * DEG * math.sin(2 * math.pi * 0.3 * tk), 15.0, r[k], ay[k])
+                      for k, tk in enumerate(t)])
+    assert sigma[t < 6.0].max() == 0.0
+    # above valid_std_max (1.5 deg) within 0.2 s of the estimate being 3 deg off (0.6 s into the slide)
+    assert t[np.argmax(sigma > 1.5 * DEG)] <= 6.8
+
+
+def test_kinematic_check_makes_a_linear_tire_estimate_not_valid_in_a_balanced_slide():
+    """Kim 2016 on the test set's friction drop: with the check its estimate is never valid while more than
+    3 deg off for more than 0.5 s; without it, it is (module docstring of hardening)."""
+    case = bm.Case("bench_changing_mu_sonata", "sensors+mismatch", 0)
+    s, rec = bm.setup(case), bm.simulate(case)
+    longest = {}
+    for check in (True, False):
+        row = bm.Row("k", "Kim2016SteeringEKF", (("profile", 1), ("kinematic_check", check)))
+        res = replay(bm.make_estimator(row, s), rec)
+        longest[check] = bm.row_metrics(rec, res["beta_hat"], res["beta_hat_std"], res["valid"])["off_while_valid"]
+    assert longest[True] <= 0.5 < longest[False]
+

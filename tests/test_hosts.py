@@ -270,7 +270,7 @@ def test_omsimulator_runs_on_through_a_nan_input(omsimulator, fmu_dir, tmp_path)
     proc = subprocess.run([sys.executable, "-c", _OMS_NAN_SCRIPT, str(fmu_dir / f"{name}.fmu"),
                            str(omsimulator / "lib"), json.dumps(params), str(tmp_path), json.dumps(values),
                            "yaw_rate_m"],
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)   # its m_res.mat lands there
     assert proc.returncode == 0, (proc.stdout + proc.stderr)[-3000:]
     out = json.loads(next(line[7:] for line in proc.stdout.splitlines() if line.startswith("RESULT ")))
     assert out["status"] == [0]                                  # every step ok

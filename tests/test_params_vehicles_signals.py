@@ -158,3 +158,10 @@ def test_units_have_consistent_base_units():
     for u in UNITS.values():
         assert set(u.base) <= {"kg", "m", "s", "A", "K", "mol", "cd", "rad"}
         assert re.fullmatch(r"[A-Za-z0-9./]+", u.name)
+
+
+def test_a_parameter_error_crosses_a_process_boundary_with_its_message():
+    import pickle
+    err = ParameterError("vehicle.m", -1.0, "> 0 kg")
+    back = pickle.loads(pickle.dumps(err))
+    assert type(back) is ParameterError and str(back) == str(err) and back.name == "vehicle.m"

@@ -36,6 +36,10 @@ class ParameterError(ValueError):
         self.name, self.value, self.allowed = name, value, allowed
         super().__init__(f"parameter '{name}' = {value!r} is invalid; allowed: {allowed}")
 
+    def __reduce__(self):
+        # rebuilt from its three fields, so it crosses a process pool or a Dask worker with its message
+        return type(self), (self.name, self.value, self.allowed)
+
 
 @dataclass(frozen=True)
 class ParamInfo:

@@ -13,6 +13,11 @@ additions; these are the common parts:
   asphalt near the limit) every linear-model estimate is wrong whatever its covariance says; the
   gap sets a sideslip uncertainty that enters the filter's covariance and the reported std
   (:class:`ModelTrust` applies both).
+* :class:`KinematicCheck` - does the estimate follow the sideslip's kinematics
+  ``d(beta)/dt = a_y / v_x - r``?  When both axles leave their linear range together (on snow in a
+  sine steer) :class:`TireLinearity` sees little, yet the car slides by degrees in a second while a
+  linear-tire estimate stays where its model puts it; the kinematics, high-passed so that sensor
+  offsets and a road bank drop out, show it.
 * the validity gate of :class:`ProfiledEstimator`: an estimate whose reported std exceeds
   ``valid_std_max`` is not valid, so ``valid`` follows whatever the std knows, and after any break
   ``valid`` is reported only once the estimate has been valid for ``valid_hold`` seconds (a filter
@@ -27,9 +32,10 @@ from ..bicycle import axle_forces
 from ..params import param
 from ..vehicles import VehicleParams
 from .base import Estimator, EstimatorConfig, lowpass
+from .roll import RollCompensator
 
-__all__ = ["PUBLISHED", "HARDENED", "ProfiledConfig", "GpsLatencyConfig", "LinearTireConfig", "ProfiledEstimator", "InnovationMonitor",
-           "model_sideslip_std", "TireLinearity", "ModelTrust"]
+__all__ = ["PUBLISHED", "HARDENED", "ProfiledConfig", "GpsLatencyConfig", "LinearTireConfig", "ProfiledEstimator",
+           "InnovationMonitor", "model_sideslip_std", "TireLinearity", "KinematicCheck", "ModelTrust"]
 
 PUBLISHED, HARDENED = 0, 1
 """Values of the ``profile`` parameter."""
@@ -70,6 +76,12 @@ class LinearTireConfig(ProfiledConfig):
                                    "stiffness in the reported std", ge=0, le=2)
     kinematic_gap: float = param(0.01, "Angle", "Hardened: tire-linearity gap at which the estimate leans half on the "
                                  "kinematic (sensor) path instead of the linear tires", gt=0, le=1)
+    kinematic_check: bool = param(True, "Dimensionless", "Hardened: add to the reported std how far the estimate's "
+                                  "changes depart from the kinematic d(beta)/dt = a_y/v_x - r (KinematicCheck)")
+    kinematic_tol: float = param(0.02, "Angle", "Hardened: departure from the kinematics that sensor noise and roll "
+                                 "explain (KinematicCheck)", ge=0, le=1)
+    kinematic_tau: float = param(2.0, "Time", "Hardened: time constant of the high-pass filter of KinematicCheck "
+                                 "(offsets slower than this drop out)", gt=0, le=60)
 
 
 class ProfiledEstimator(Estimator):
@@ -172,13 +184,17 @@ class ModelTrust:
     :meth:`apply` raises the sideslip variance of the filter's covariance to what
     :class:`TireLinearity` leaves open (so that the filter re-converges from the measurements once
     the tires are linear again, instead of trusting an estimate fitted to the wrong model) and returns
-    :func:`model_sideslip_std`, which the estimator adds to its reported std.
+    :func:`model_sideslip_std`, which the estimator adds to its reported std.  With
+    ``kinematic_check`` it also holds a :class:`KinematicCheck` (:meth:`check_kinematics`), whose
+    :attr:`kinematic_sigma` enters the reported std only.
     """
 
-    __slots__ = ("linearity", "_vehicle", "_e")
+    __slots__ = ("linearity", "kinematics", "_vehicle", "_e")
 
     def __init__(self, vehicle: VehicleParams, ts: float, config: LinearTireConfig):
         self.linearity = TireLinearity(vehicle, ts, config.stiffness_error)
+        self.kinematics = KinematicCheck(ts, config.kinematic_tol, config.kinematic_tau, RollCompensator(vehicle, ts)) \
+            if config.kinematic_check else None
         self._vehicle, self._e = vehicle, config.stiffness_error
 
     def apply(self, P, i: int, vx: float, r: float, delta: float, ay: float, mz: float = 0.0) -> float:
@@ -204,6 +220,18 @@ class ModelTrust:
         """:func:`model_sideslip_std` of the estimator's vehicle at the lateral acceleration ``ay`` plus what
         :class:`TireLinearity` last found unexplained [rad]."""
         return model_sideslip_std(self._vehicle, ay, self._e) + self.linearity.sigma
+
+    @property
+    def kinematic_sigma(self) -> float:
+        """:attr:`KinematicCheck.sigma` [rad], 0 when the check is off: it enters the reported std only (the
+        check judges the estimate, it is no information for the filter)."""
+        return self.kinematics.sigma if self.kinematics is not None else 0.0
+
+    def check_kinematics(self, beta: float, vx: float, r: float, ay: float) -> None:
+        """:meth:`KinematicCheck.update` with this sample's estimate and the body-fixed (not roll-compensated)
+        lateral acceleration (nothing when the check is off)."""
+        if self.kinematics is not None:
+            self.kinematics.update(beta, vx, r, ay)
 
 
 class TireLinearity:
@@ -264,4 +292,64 @@ class TireLinearity:
         gap = gap if gap > 0.0 else 0.0
         # up fast, down slowly: a filter that has just left a state it could not model is wrong for a while
         self.sigma = lowpass(self.sigma, gap, self._ts, self._cut if gap > self.sigma else self._cut_down)
+        return self.sigma
+
+
+class KinematicCheck:
+    """Sideslip uncertainty from an estimate that does not follow the sideslip's kinematics.
+
+    Whatever the tires, the sideslip of a car at a slowly changing speed obeys
+    ``d(beta)/dt = a_y / v_x - r``.  The departure ``e = d(beta_hat)/dt - (a_y / v_x - r)`` of an
+    estimate is constant from sensor offsets and a road bank, and a pulse when the car slides and the
+    estimate does not (a linear-tire model with both axles saturated: the car's sideslip swings by
+    5 deg in a second while the model's stays under 1 deg).  The check high-passes ``e`` (its mean
+    over ``tau`` subtracted) and integrates the rest with a leak of ``tau``: the result ``d`` [rad] is
+    how far the estimate has moved against the kinematics lately; what exceeds ``tol`` is
+    :attr:`sigma`, which rises at once and falls with ``tau``.  Accelerometer and gyro noise, the
+    roll's ``g sin(phi)`` in a body-fixed ``a_y`` and a speed change (``beta dv_x / v_x``) are within
+    ``tol`` at the default, once the roll's part is removed with the vehicle's roll model (``roll``;
+    the roll of a slalom at 0.6 g moves ``d`` by about 1.5 deg).  During the first ``tau`` the
+    filter converges and the offsets' mean is learnt: nothing is counted.  The default ``tol`` and
+    ``tau`` (``kinematic_tol``, ``kinematic_tau``) were chosen on the benchmark's training set.
+
+    Parameters
+    ----------
+    ts : float
+        Sample period [s].
+    tol : float
+        Departure [rad] that is not counted.
+    tau : float
+        Time constant of the high-pass filter and of the leak [s].
+    roll : RollCompensator, optional
+        Removes ``g sin(phi)`` from a body-fixed ``a_y``; None when ``a_y`` is the CG's.
+    """
+
+    __slots__ = ("_ts", "_tol", "_a", "_roll", "_warmup", "_n", "_beta_prev", "_mean", "d", "sigma")
+
+    def __init__(self, ts: float, tol: float = 0.02, tau: float = 2.0, roll: RollCompensator | None = None):
+        self._ts, self._tol, self._a, self._roll = ts, tol, math.exp(-ts / tau), roll
+        self._warmup = max(1, int(round(tau / ts)))
+        self._n = 0
+        self._beta_prev = None
+        self._mean = self.d = self.sigma = 0.0
+
+    def update(self, beta: float, vx: float, r: float, ay: float) -> float:
+        """One sample with the estimate [rad], the speed [m/s], the yaw rate [rad/s] (offset removed where the
+        filter estimates it) and the lateral acceleration [m/s2]; returns :attr:`sigma` [rad]."""
+        if self._roll is not None:
+            ay = self._roll(ay)
+        prev, self._beta_prev = self._beta_prev, beta
+        if prev is None:
+            return self.sigma
+        ts, a = self._ts, self._a
+        e = (beta - prev) / ts - (ay / vx - r)
+        self._n += 1
+        if self._n <= self._warmup:            # the first tau: the offsets' mean is learnt while the filter converges
+            self._mean += (e - self._mean) / self._n
+            return self.sigma
+        self.d = a * self.d + (e - self._mean) * ts
+        self._mean = a * self._mean + (1.0 - a) * e
+        gap = abs(self.d) - self._tol
+        gap = gap if gap > 0.0 else 0.0
+        self.sigma = gap if gap > self.sigma else a * self.sigma + (1.0 - a) * gap
         return self.sigma

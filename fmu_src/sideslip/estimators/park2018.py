@@ -54,9 +54,10 @@ sensors and drives other than the paper's, each with the failure it answers:
   ``(1 - K)^2 sigma_bic^2 + K^2 sigma_kin^2``, the bicycle sub-filter's covering its stiffness states
   (its sideslip variance raised beyond the tires' linear range,
   :class:`~sideslip.estimators.hardening.ModelTrust`) and the kinematic one's inflated by the
-  consistency of the GPS innovations; ``valid`` is false while the GPS is out longer than
-  ``gps_coast``, while those innovations are inconsistent and while the std exceeds
-  ``valid_std_max``.
+  consistency of the GPS innovations, plus the output's departure from the kinematics
+  ``d(beta)/dt = a_y / v_x - r`` (:class:`~sideslip.estimators.hardening.KinematicCheck`,
+  ``kinematic_check``); ``valid`` is false while the GPS is out longer than ``gps_coast``, while
+  those innovations are inconsistent and while the std exceeds ``valid_std_max``.
 """
 from __future__ import annotations
 
@@ -525,5 +526,7 @@ class Park2018Observer(ProfiledEstimator):
                     self._gps_nis.inflation() ** 2
             else:
                 var_kin = var_bic
-            self.beta_std = math.sqrt((1 - k) ** 2 * var_bic + k * k * var_kin)
+            self._trust.check_kinematics(self.beta, vx_i, r, ay_m)
+            self.beta_std = math.hypot(math.sqrt((1 - k) ** 2 * var_bic + k * k * var_kin),
+                                       self._trust.kinematic_sigma)
             self.valid = kin is not None and self._outage <= cfg.gps_coast and self._gps_nis.consistent

@@ -63,6 +63,10 @@ vehicles and sensors other than the paper's, each with the failure it answers:
   reported std by the consistency of the innovations and adds the linear tires' model error; beyond
   their range the sideslip's variance is raised (:class:`~sideslip.estimators.hardening.ModelTrust`);
   ``valid`` is false while the std exceeds ``valid_std_max``.
+* **The kinematics as a check** (:class:`~sideslip.estimators.hardening.KinematicCheck`,
+  ``kinematic_check``): the estimate's departure from ``d(beta)/dt = a_y / v_x - r`` enters the
+  reported std, so a slide with both axles saturated, which the linearity test sees late, makes the
+  estimate not valid.
 """
 from __future__ import annotations
 
@@ -307,7 +311,8 @@ class Pi2011FuzzyEKF(ProfiledEstimator):
         self.valid = True
         if self.hardened:
             self._nis.add(nis, 3)
-            model_std = self._trust.model_std(ay)
+            self._trust.check_kinematics(self.beta, vx, r, u[I.AY_M])
+            model_std = self._trust.model_std(ay) + self._trust.kinematic_sigma
             self.beta_std = math.hypot(kf.std(St.BETA) * self._nis.inflation(), model_std)
             if abs(self.beta) > cfg.beta_max:          # beyond a car's sideslip: held at the bound, not valid
                 self.beta = kf.x[St.BETA] = math.copysign(cfg.beta_max, self.beta)
