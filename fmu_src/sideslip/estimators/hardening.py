@@ -193,8 +193,8 @@ class ModelTrust:
 
     def __init__(self, vehicle: VehicleParams, ts: float, config: LinearTireConfig):
         self.linearity = TireLinearity(vehicle, ts, config.stiffness_error)
-        self.kinematics = KinematicCheck(ts, config.kinematic_tol, config.kinematic_tau, RollCompensator(vehicle, ts)) \
-            if config.kinematic_check else None
+        self.kinematics = KinematicCheck(ts, config.kinematic_tol, config.kinematic_tau,
+                                         RollCompensator(vehicle, ts)) if config.kinematic_check else None
         self._vehicle, self._e = vehicle, config.stiffness_error
 
     def apply(self, P, i: int, vx: float, r: float, delta: float, ay: float, mz: float = 0.0) -> float:
@@ -305,12 +305,11 @@ class KinematicCheck:
     5 deg in a second while the model's stays under 1 deg).  The check high-passes ``e`` (its mean
     over ``tau`` subtracted) and integrates the rest with a leak of ``tau``: the result ``d`` [rad] is
     how far the estimate has moved against the kinematics lately; what exceeds ``tol`` is
-    :attr:`sigma`, which rises at once and falls with ``tau``.  Accelerometer and gyro noise, the
-    roll's ``g sin(phi)`` in a body-fixed ``a_y`` and a speed change (``beta dv_x / v_x``) are within
-    ``tol`` at the default, once the roll's part is removed with the vehicle's roll model (``roll``;
-    the roll of a slalom at 0.6 g moves ``d`` by about 1.5 deg).  During the first ``tau`` the
-    filter converges and the offsets' mean is learnt: nothing is counted.  The default ``tol`` and
-    ``tau`` (``kinematic_tol``, ``kinematic_tau``) were chosen on the benchmark's training set.
+    :attr:`sigma`, which rises at once and falls with ``tau``.  ``tol`` takes the sensor noise, the
+    neglected ``beta dv_x / v_x`` and what the roll model (``roll``, which removes the roll's
+    ``g sin(phi)`` from a body-fixed ``a_y``) leaves.  During the first ``tau`` the filter converges
+    and the offsets' mean is learnt: nothing is counted.  The defaults of ``tol`` and ``tau``
+    (``kinematic_tol``, ``kinematic_tau``) were chosen on the benchmark's training set.
 
     Parameters
     ----------
