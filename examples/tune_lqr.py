@@ -1,8 +1,10 @@
 """LQR weight sweep: hundreds of closed loops of FMUs, in parallel, resumable, with a Pareto plot.
 
-Every point (q_beta, q_gamma, q_N) runs ``LqrDycController`` (on the true sideslip by default)
-in closed loop with the plant, sensor and driver FMUs over the maneuver set
-:data:`sideslip.studies.control_eval.TUNING_MANEUVERS` (three 5 s FMVSS 126 sine-with-dwell runs).
+Every point (q_beta, q_gamma, q_N) runs ``LqrDycController`` (drivable profile, on the true sideslip
+by default) in closed loop with the plant, sensor and driver FMUs over the maneuver set
+:data:`sideslip.studies.control_eval.TUNING_MANEUVERS` (three 5 s FMVSS 126 sine-with-dwell runs)
+under the control evaluation's realistic condition ``sensors+mismatch`` (sensor offsets and noise,
+the plant on Magic Formula tires, the controller's vehicle perturbed from the plant's; seed 0).
 Points run on a local process pool, or on a Dask distributed cluster with ``--scheduler``;
 each result is appended to the CSV as it finishes, so an interrupted study restarted with
 the same CSV only runs the missing points.  The Pareto front of tracking error against
@@ -26,7 +28,7 @@ from sideslip.fmi.build import DEFAULT_OUT, ensure_fmus
 OUT = Path("out") / "examples" / "tune_lqr"
 GRID = {"q_beta": np.logspace(9, 12, 5), "q_gamma": np.logspace(7, 10, 5), "q_N": np.logspace(-0.5, 1.5, 5)}
 FIELDS = ["q_beta", "q_gamma", "q_N", "tracking", "rms_beta_error_deg", "rms_yaw_rate_error_deg_s", "effort_Nms",
-          "max_abs_beta_deg", "fmvss_passes", "sim_seconds", "wall_seconds"]
+          "max_abs_beta_deg", "saturated_pct", "rms_dMz_dt", "fmvss_passes", "sim_seconds", "wall_seconds"]
 
 
 def grid_points(grid=GRID) -> list[dict]:

@@ -448,6 +448,15 @@ BENCHMARK_TEST = (
 for _sc in BENCHMARK_TRAINING + BENCHMARK_TEST:
     _add(_sc)
 
+CONTROL_LAUNCH = Scenario(
+    "control_launch_turn_sonata", "Launch into a 20 m circle to the left, 1 -> 11 m/s at 0.2 g, Sonata, mu 1.0",
+    "sideslip-fmu control evaluation", "park2018_sonata",
+    _spec("circle", v0=1.0, v=11.0, t_go=1.0, accel=2.0, radius=20.0, lead_in=2.0, duration=15.0), 15.0,
+    sensors=dict(_BENCH_SENSORS), notes=("Moving off into a tight turn: the speed crosses the controller's "
+                                         "v_min while the car turns at 0.3-0.6 g.",))
+"""A low-speed launch into a turn (the controller's speed schedule and fade-in)."""
+_add(CONTROL_LAUNCH)
+
 FMVSS_FACTORS = tuple(1.5 + 0.5 * i for i in range(11))
 """FMVSS 126 sine-with-dwell amplitudes in multiples of A (S7.7: 1.5A to 6.5A in 0.5A steps)."""
 _LAZY = {}

@@ -15,7 +15,8 @@ from .units import QUANTITIES
 
 __all__ = ["Signal", "SIGNALS", "signal", "WHEELS", "WHEEL_SPEEDS", "WHEEL_SPEEDS_M", "PLANT_INPUTS",
            "PLANT_OUTPUTS", "SENSOR_INPUTS", "SENSOR_OUTPUTS", "DRIVER_INPUTS", "DRIVER_OUTPUTS",
-           "ESTIMATOR_COMMON_OUTPUTS", "CONTROLLER_INPUTS", "CONTROLLER_OUTPUTS", "LQR_OUTPUTS"]
+           "ESTIMATOR_COMMON_OUTPUTS", "CONTROLLER_INPUTS", "CONTROLLER_EXTRA_INPUTS", "CONTROLLER_OUTPUTS", "LQR_OUTPUTS",
+           "ESC_OUTPUTS"]
 
 _INF = math.inf
 
@@ -182,7 +183,13 @@ _ENTRIES = [
     _real("beta_ref", "Angle", "Reference sideslip angle of the reference model", -_PI, _PI),
     _real("yaw_rate_ref", "AngularVelocity", "Reference yaw rate of the reference model", -10.0, 10.0),
     _real("Mz_ff", "Torque", "Feed-forward part of the yaw-moment command (before saturation)", -1.0e7, 1.0e7),
-    _real("Mz_fb", "Torque", "LQR feedback part of the yaw-moment command (before saturation)", -1.0e7, 1.0e7),
+    _real("Mz_fb", "Torque", "Feedback part of the yaw-moment command (before saturation)", -1.0e7, 1.0e7),
+    _real("Mz_yaw", "Torque", "Yaw-rate PI part of the baseline ESC's command (before saturation)", -1.0e7, 1.0e7),
+    _real("Mz_beta", "Torque", "Sideslip-limiter part of the baseline ESC's command (before saturation)", -1.0e7,
+          1.0e7),
+    _bool("beta_valid", "True when beta_hat may be used (the estimator's valid); false fades the sideslip "
+          "feedback out", start=True),
+    _bool("dyc_enable", "True to apply the yaw moment; false fades the command to zero", start=True),
 ]
 
 SIGNALS: dict[str, Signal] = {}
@@ -225,6 +232,11 @@ DRIVER_OUTPUTS = ("delta_f", "T_drive", "T_brake", "mu", "bank_angle", "F_wind_y
                   "delta_sw", "v_ref")
 ESTIMATOR_COMMON_OUTPUTS = ("beta_hat", "beta_hat_std", "vx_hat", "vy_hat", "yaw_rate_hat", "valid")
 CONTROLLER_INPUTS = ("delta_m", "vx_hat", "beta_hat", "yaw_rate_m")
+CONTROLLER_EXTRA_INPUTS = ("yaw_rate_hat", "beta_valid", "dyc_enable")
+"""Inputs the controllers take beyond the contract's, each working when left unconnected (the
+estimated yaw rate is used only when the parameter ``yaw_rate_source`` asks for it)."""
 CONTROLLER_OUTPUTS = ("Mz_cmd", "beta_ref", "yaw_rate_ref")
 LQR_OUTPUTS = CONTROLLER_OUTPUTS + ("Mz_ff", "Mz_fb")
 """Outputs of the LQR direct-yaw-moment controller: the contract's plus the command's two parts."""
+ESC_OUTPUTS = CONTROLLER_OUTPUTS + ("Mz_yaw", "Mz_beta")
+"""Outputs of the baseline ESC: the contract's plus the command's two parts."""

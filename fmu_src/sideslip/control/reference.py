@@ -46,15 +46,16 @@ class ReferenceModel:
         """References at zero."""
         self.beta = self.gamma = 0.0
 
+    def limited_steer(self, delta: float, vx: float) -> float:
+        """The steering clipped at what the road can turn: ``|k_gamma delta| <= mu g / vx`` [rad]."""
+        lim = self.mu * GRAVITY / (vx * abs(self.model.steady_state_gains(vx)[1]))
+        return lim if delta > lim else (-lim if delta < -lim else delta)
+
     def targets(self, delta: float, vx: float) -> tuple[float, float]:
         """Steady-state ``(beta, gamma)`` targets [rad, rad/s] for steering ``delta`` at ``vx``."""
         k_beta, k_gamma = self.model.steady_state_gains(vx)          # eqs 21-22 without the lags
-        beta, gamma = k_beta * delta, k_gamma * delta
-        limit = self.mu * GRAVITY / vx
-        if abs(gamma) > limit:
-            scale = limit / abs(gamma)
-            beta, gamma = beta * scale, gamma * scale
-        return beta, gamma
+        delta = self.limited_steer(delta, vx)
+        return k_beta * delta, k_gamma * delta
 
     def step(self, delta: float, vx: float) -> tuple[float, float]:
         """Advance the lags by one sample; returns ``(beta_ref, gamma_ref)``."""

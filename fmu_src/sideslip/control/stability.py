@@ -1,8 +1,9 @@
 """Estimator + LQR controller in one model: sensor signals in, yaw-moment command out.
 
 The estimator is any of :data:`sideslip.estimators.ESTIMATORS` (named like its FMU), built
-for the same vehicle; its ``beta_hat`` and ``vx_hat`` feed :class:`LqrDycController` with the
-gyro's yaw rate, and the controller's previous command is the estimator's ``Mz_cmd`` input
+for the same vehicle; its ``beta_hat``, ``vx_hat``, ``yaw_rate_hat`` (used with ``yaw_rate_source``
+1, the default here) and ``valid`` (as ``beta_valid``) feed :class:`LqrDycController`, and the
+controller's previous command is the estimator's ``Mz_cmd`` input
 (the estimators that model the in-wheel motors' yaw moment, Nguyen 2012 and Pi 2011, need
 it; one sample of delay, as in the separate-FMU closed loop).  An estimator that takes the road
 friction as an input (Park 2018) gets the parameter ``mu`` the reference model uses.
@@ -22,9 +23,10 @@ __all__ = ["StabilityControllerConfig", "StabilityController", "STABILITY_INPUTS
 
 STABILITY_INPUTS = tuple(
     [s for s in SENSOR_OUTPUTS if any(s in cls.input_names for cls in ESTIMATORS.values())]
-    + sorted({n for cls in ESTIMATORS.values() for n in cls.input_names} - set(SENSOR_OUTPUTS) - {"Mz_cmd", "mu"}))
+    + sorted({n for cls in ESTIMATORS.values() for n in cls.input_names} - set(SENSOR_OUTPUTS) - {"Mz_cmd", "mu"})
+    + ["dyc_enable"])
 """Every input any estimator needs (sensor order first), except the command and the friction,
-which it gets internally."""
+which it gets internally; then the controller's ``dyc_enable``."""
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,8 @@ class StabilityControllerConfig(LqrDycConfig):
     Ts: float = param(0.0, "Time", "Sample period of the embedded estimator (0: its own default)", ge=0, le=1.0)
     estimator_profile: int = param(1, "Dimensionless", "Profile of the embedded estimator: 0 as published, "
                                    "1 hardened (its parameter profile)", choices=(0, 1))
+    yaw_rate_source: int = param(1, "Dimensionless", "Yaw rate fed back: 0 the gyro (yaw_rate_m), 1 the "
+                                 "embedded estimator's (yaw_rate_hat)", choices=(0, 1))
 
 
 class StabilityController(Model):
@@ -62,8 +66,9 @@ class StabilityController(Model):
         pos = {n: i for i, n in enumerate(self.input_names)}
         internal = {"Mz_cmd": -1, "mu": -2}      # -1: the last command, -2: the parameter mu
         self._est_ix = [pos[n] if n in pos else internal[n] for n in self.estimator.input_names]
-        self._ctl_ix = (pos["delta_m"], pos["yaw_rate_m"])
+        self._ctl_ix = (pos["delta_m"], pos["yaw_rate_m"], pos["dyc_enable"])
         self._est_u = [0.0] * len(self._est_ix)
+        self._yaw_rate_hat, self._valid = (self.estimator.output_names.index(n) for n in ("yaw_rate_hat", "valid"))
         self.reset()
 
     def reset(self) -> None:
@@ -81,5 +86,7 @@ class StabilityController(Model):
         for j, i in enumerate(self._est_ix):
             eu[j] = u[i] if i >= 0 else (mz if i == -1 else mu)
         est.step(h, *eu)
-        ctl.step(h, u[self._ctl_ix[0]], est.vx, est.beta, u[self._ctl_ix[1]])
-        self._out = ctl.outputs() + est.outputs()[:len(ESTIMATOR_COMMON_OUTPUTS)]
+        i_delta, i_gyro, i_enable = self._ctl_ix
+        out = est.outputs()
+        ctl.step(h, u[i_delta], est.vx, est.beta, u[i_gyro], out[self._yaw_rate_hat], out[self._valid], u[i_enable])
+        self._out = ctl.outputs() + out[:len(ESTIMATOR_COMMON_OUTPUTS)]

@@ -11,7 +11,10 @@ and the SSP export (:mod:`~sideslip.cosim.ssp`):
   scenario, then the estimators and the controller, each FMU receiving the scenario's vehicle and
   every scenario hint that matches one of its parameters (``Ts``, ``mu``, ...), so adding an
   estimator to a run is naming it.  When several estimators run, the first one feeds the
-  controller unless told otherwise.
+  controller unless told otherwise.  The controller's source also feeds its ``beta_valid`` (an
+  estimator's ``valid``; the truth leaves it true) and ``yaw_rate_hat`` (the truth: the plant's
+  yaw rate), and the controller is set to feed back that yaw rate (``yaw_rate_source`` 1) rather
+  than the gyro's, unless the parameters say otherwise.
 """
 from __future__ import annotations
 
@@ -20,7 +23,7 @@ from pathlib import Path
 
 from ..fmi.build import DEFAULT_OUT, ensure_fmus
 from ..fmi.catalogue import CATALOGUE, fmu_names, fmu_spec
-from ..params import ParameterError, parse_assignment
+from ..params import ParameterError, declared_fields, parse_assignment
 from ..scenarios import Scenario, scenario_params
 
 __all__ = ["Component", "Interface", "MasterError", "INPUT_ALIASES", "PLANT", "SENSORS", "DRIVER", "TRUTH_SOURCE",
@@ -33,7 +36,7 @@ INPUT_ALIASES = {"Mz_dyc": ("Mz_cmd",)}
 PLANT, SENSORS, DRIVER = "VehiclePlant", "VehicleSensors", "ManeuverDriver"
 """The FMUs of every scenario loop (instances ``plant``, ``sensors``, ``driver``)."""
 
-TRUTH_SOURCE = {"beta": "beta_hat", "vx": "vx_hat"}
+TRUTH_SOURCE = {"beta": "beta_hat", "vx": "vx_hat", "yaw_rate": "yaw_rate_hat"}
 """Plant truth -> controller input when the controller runs on the true sideslip (``control_source="truth"``)."""
 
 
@@ -231,9 +234,16 @@ def scenario_components(scenario: Scenario, estimators=(), controller: str | Non
                     connections.append((f"plant.{truth}", f"controller.{name}"))
         elif source not in dict(pairs):
             raise KeyError(f"control source {source!r}: use 'truth' or one of the estimators {', '.join(estimators)}")
-        elif len(estimators) > 1:
-            for name in inputs & set(fmu_spec(dict(pairs)[source]).outputs):
-                connections.append((f"{source}.{name}", f"controller.{name}"))
+        else:
+            outputs = set(fmu_spec(dict(pairs)[source]).outputs)
+            if len(estimators) > 1:
+                for name in sorted(inputs & outputs):
+                    connections.append((f"{source}.{name}", f"controller.{name}"))
+            if "beta_valid" in inputs and "valid" in outputs:
+                connections.append((f"{source}.valid", "controller.beta_valid"))
+        if "yaw_rate_hat" in inputs and "yaw_rate_source" in {f.name for f, _ in
+                                                             declared_fields(fmu_spec(controller).config_class)}:
+            comps[-1].parameters.setdefault("yaw_rate_source", 1)     # its source provides an estimated yaw rate
     for key, value in (params or {}).items():
         inst, _, name = key.partition(".")
         match = [c for c in comps if c.name == inst]

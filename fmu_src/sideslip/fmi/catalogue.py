@@ -171,7 +171,12 @@ _ENTRIES = (
             "sideslip.control.dyc:LqrDycConfig", "controller",
             "LQR direct-yaw-moment controller for in-wheel-motor EVs (Nguyen et al. 2012 section IV): "
             "friction-limited reference model (eqs 21-22), feed-forward G_ff (eq 24), LQR feedback on the sideslip "
-            "and yaw-rate errors (eqs 25-26) scheduled on speed, saturation at the motors' limit"),
+            "and yaw-rate errors (eqs 25-26) scheduled on speed, saturation at the motors' limit; drivable profile: "
+            "feed-forward bandwidth, fade-in above a low speed, bumpless transfer, rate limit"),
+    FmuSpec("BaselineEsc", "sideslip_baseline_esc_fmu", "sideslip.control.esc:BaselineEsc",
+            "sideslip.control.esc:EscConfig", "controller",
+            "Baseline ESC-style direct-yaw-moment controller for in-wheel-motor EVs: yaw-rate PI with a dead band "
+            "around the friction-limited reference (anti-windup), plus a sideslip limiter"),
     FmuSpec("StabilityController", "sideslip_stability_fmu", "sideslip.control.stability:StabilityController",
             "sideslip.control.stability:StabilityControllerConfig", "controller",
             "Vehicle stability controller in one block: sensor signals in, direct-yaw-moment command out. Embeds "

@@ -173,12 +173,12 @@ class CaseSetup:
     calibrated_field: bool           #: estimators get the sensors' Earth field
 
 
-def setup(case: Case) -> CaseSetup:
-    """The scenario, plant and sensor parameters and the estimators' vehicle of a case (of a recorded drive:
-    the vehicle named by the case, or None for each estimator's own default)."""
+def setup(case: Case, overrides: dict | None = None) -> CaseSetup:
+    """The scenario (with ``overrides``), plant and sensor parameters and the estimators' vehicle of a case
+    (of a recorded drive: the vehicle named by the case, or None for each estimator's own default)."""
     if case.condition == RECORDED:
         return CaseSetup(None, {}, {}, None, load_vehicle(case.vehicle) if case.vehicle else None, False)
-    sc = get_scenario(case.scenario)
+    sc = get_scenario(case.scenario, **(overrides or {}))
     sensors = {**sc.sensor_params(), "seed": 1000 + case.seed}
     plant = dict(sc.plant_params())
     noisy = "sensors" in case.condition

@@ -12,7 +12,7 @@ import numpy as np
 
 from .metrics import EVAL_MIN_SPEED, wrap
 
-__all__ = ["plot_sideslip"]
+__all__ = ["plot_sideslip", "plot_command_split"]
 
 _DEG = 180.0 / math.pi
 
@@ -54,6 +54,46 @@ def plot_sideslip(results, estimators, path: str | Path, title: str = "", plant:
     ax2.legend(loc="best", fontsize=8)
     ax2.grid(True, alpha=0.3)
     ax2.set_xlabel("time [s]")
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def plot_command_split(runs: dict, path: str | Path, title: str = "") -> Path:
+    """Write a figure of yaw-moment commands split into their parts, one panel per run, over the yaw rate.
+
+    Parameters
+    ----------
+    runs : dict
+        ``{label: arrays}`` with ``time``, ``plant.yaw_rate``, ``controller.yaw_rate_ref``,
+        ``controller.Mz_cmd`` and the controller's two parts (``Mz_ff``/``Mz_fb`` or ``Mz_yaw``/``Mz_beta``).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10, 2.4 * (len(runs) + 1)))
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(runs) + 1, 1, sharex=True)
+    for (label, a), ax in zip(runs.items(), axes[1:]):
+        t = a["time"]
+        axes[0].plot(t, a["plant.yaw_rate"] * _DEG, lw=1.2, label=f"yaw rate, {label}")
+        ax.plot(t, a["controller.Mz_cmd"], "k", lw=1.6, label="Mz_cmd")
+        for part in ("Mz_ff", "Mz_fb", "Mz_yaw", "Mz_beta"):
+            if f"controller.{part}" in a:
+                ax.plot(t, a[f"controller.{part}"], lw=1.0, label=part)
+        ax.set_ylabel("yaw moment [N m]")
+        ax.set_title(label, fontsize=9)
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8)
+    first = next(iter(runs.values()))
+    axes[0].plot(first["time"], first["controller.yaw_rate_ref"] * _DEG, "k--", lw=1.0, label="reference")
+    axes[0].set_ylabel("yaw rate [deg/s]")
+    axes[0].grid(True, alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[0].set_title(title)
+    axes[-1].set_xlabel("time [s]")
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,207 @@
+"""What the yaw-moment controllers share: configuration, speed schedule, bumpless transfer, limits.
+
+A controller (:class:`YawMomentController`) computes an unsaturated yaw moment from the
+steering, the speed, the sideslip and the yaw rate, in its :meth:`~YawMomentController._law`;
+this module turns it into the command the motors get:
+
+* the **schedule speed** follows ``vx_hat`` at most at :data:`SCHEDULE_ACCEL` (15 m/s2, more than a
+  car brakes), so that a jumping speed estimate (an estimator coming up at 18 m/s) sweeps the
+  speed-scheduled gains instead of stepping them;
+* the command **fades in** with the schedule speed, a smoothstep from 0 at ``v_min`` to 1 at
+  ``v_min + v_fade``: below it the linear model's references are far from what a car in a tight
+  low-speed turn does, and the large sideslip gain there turns the difference into a moment
+  against the driver's turn;
+* **bumpless transfer**: ``dyc_enable`` fades the whole command and ``beta_valid`` (the estimator's
+  ``valid``) the sideslip feedback in or out over ``t_transfer``; at start both fade in;
+* **steering-offset learning**: in near-straight driving (``|yaw rate| < 1 deg/s``, the steering
+  within 0.02 rad of its offset) the offset of ``delta_m`` is learnt as the mean, over
+  ``t_steer_offset``, of the steering minus the steering the model needs for the measured yaw rate
+  (``gamma / (r/delta)_ss``), and the references get the steering less it (within
+  :data:`STEER_OFFSET_MAX`).  A 2 mrad offset would otherwise ask for a standing yaw rate: on the
+  Sonata at 20 m/s a standing moment of about 70 N m.  It also takes out what a crowned road asks
+  of the driver to go straight.  The feed-forward has zero static gain and does not need it;
+* the command is **rate-limited** at ``Mz_rate_max``, then **saturated** at what the in-wheel motors
+  can give, ``motor_T_max t / R_w`` (the plant's motors apply ``+-dT`` on the two wheels of their
+  axle, each limited to ``motor_T_max``).
+
+A controller may switch these off (``shaped = False``, the LQR's published profile): then the
+speed is used as it comes, the command is on above ``v_min`` and off below, ``beta_valid`` is
+ignored, no offset is learnt and only the saturation remains.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..bicycle import BicycleModel
+from ..model import SampledModel
+from ..params import ParameterError, check, param
+from ..signals import CONTROLLER_EXTRA_INPUTS, CONTROLLER_INPUTS
+from ..vehicles import VehicleConfig, VehicleParams
+from .reference import ReferenceModel
+
+__all__ = ["SCHEDULE_ACCEL", "STRAIGHT_YAW_RATE", "STRAIGHT_STEER", "STEER_OFFSET_MAX", "YawMomentConfig",
+           "yaw_moment_limit", "smoothstep", "Ramp", "YawMomentController"]
+
+SCHEDULE_ACCEL = 15.0
+"""[m/s2] fastest change of the schedule speed."""
+STRAIGHT_YAW_RATE, STRAIGHT_STEER = math.radians(1.0), 0.02
+"""[rad/s], [rad]: driving counts as straight for the steering-offset learning below these."""
+STEER_OFFSET_MAX = 0.01
+"""[rad] largest steering offset learnt (road-wheel angle; about 10 deg at the handwheel)."""
+
+
+@dataclass(frozen=True)
+class YawMomentConfig(VehicleConfig):
+    """Parameters every yaw-moment controller has."""
+
+    mu: float = param(1.0, "FrictionCoefficient", "Road friction for the yaw-rate limit of the reference and the "
+                      "nominal cornering stiffness", ge=0.05, le=1.5)
+    Ts_control: float = param(0.001, "Time", "Sample period of the controller", gt=0, le=0.1)
+    tau_beta: float = param(0.15, "Time", "Lag of the sideslip reference (eq 21)", gt=0, le=5)
+    tau_gamma: float = param(0.10, "Time", "Lag of the yaw-rate reference (eq 22)", ge=0, le=5)
+    yaw_rate_source: int = param(0, "Dimensionless", "Yaw rate fed back: 0 the gyro (yaw_rate_m), 1 the "
+                                 "estimate (yaw_rate_hat)", choices=(0, 1))
+    Mz_max: float = param(0.0, "Torque", "Yaw-moment limit (0: what the vehicle's in-wheel motors can give)",
+                          ge=0, le=2.0e4)
+    Mz_rate_max: float = param(4.0e4, "TorqueRate", "Rate limit of the yaw-moment command", gt=0, le=1.0e7)
+    v_min: float = param(5.0, "Velocity", "Below this speed the command is zero", gt=0.5, le=30)
+    v_fade: float = param(5.0, "Velocity", "Speed range above v_min over which the command fades in", gt=0,
+                          le=30)
+    t_transfer: float = param(0.3, "Time", "Fade time of dyc_enable and of beta_valid", gt=0, le=10)
+    t_steer_offset: float = param(10.0, "Time", "Time constant of the steering-offset learning in straight "
+                                  "driving (0: off)", ge=0, le=1000)
+    v_max: float = param(70.0, "Velocity", "Top of the speed range of the gain schedule", gt=5, le=150)
+
+    def __post_init__(self):
+        check(self)
+        if self.v_max <= self.v_min:
+            raise ParameterError("v_max", self.v_max, f"> v_min = {self.v_min:g} m/s")
+
+
+def yaw_moment_limit(vehicle: VehicleParams) -> float:
+    """Largest yaw moment the in-wheel motors give, ``motor_T_max t / R_w`` [N m]."""
+    track = vehicle.t_f if vehicle.motor_axle == "front" else vehicle.t_r
+    return vehicle.motor_T_max * track / vehicle.R_w
+
+
+def smoothstep(x: float) -> float:
+    """0 below 0, 1 above 1, ``3 x^2 - 2 x^3`` between: a fade with zero slope at both ends."""
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    return x * x * (3.0 - 2.0 * x)
+
+
+class Ramp:
+    """A weight in [0, 1] that moves toward 1 or 0 by ``rate`` per sample: a bumpless switch."""
+
+    def __init__(self, rate: float, value: float = 0.0):
+        self.rate, self.value = rate, value
+
+    def step(self, on: bool) -> float:
+        """Move toward 1 (``on``) or 0; returns the weight."""
+        v = self.value + self.rate if on else self.value - self.rate
+        self.value = 1.0 if v > 1.0 else (0.0 if v < 0.0 else v)
+        return self.value
+
+
+class YawMomentController(SampledModel):
+    """A yaw-moment law (:meth:`_law`) with the schedule, transfer and limits of the module docstring.
+
+    Parameters
+    ----------
+    config : YawMomentConfig
+    vehicle : VehicleParams, optional
+        Overrides ``config.vehicle``.
+    """
+
+    input_names = CONTROLLER_INPUTS + CONTROLLER_EXTRA_INPUTS
+    shaped: bool = True
+
+    def __init__(self, config: YawMomentConfig, vehicle: VehicleParams | None = None):
+        self.config = cfg = config
+        self.vehicle = vehicle or cfg.vehicle_params()
+        self.model = BicycleModel.from_vehicle(self.vehicle, cfg.mu, nominal=True)
+        self.Ts = cfg.Ts_control
+        self.Mz_max = cfg.Mz_max if cfg.Mz_max > 0 else yaw_moment_limit(self.vehicle)
+        self.reference = ReferenceModel(self.model, cfg.tau_beta, cfg.tau_gamma, self.Ts, cfg.mu)
+        self._dv = SCHEDULE_ACCEL * self.Ts
+        self._dmz = cfg.Mz_rate_max * self.Ts
+        self._k_offset = self.Ts / cfg.t_steer_offset if cfg.t_steer_offset > 0 else 0.0
+
+    def reset(self) -> None:
+        """Zero command and references; the transfer weights at 0 (fading in)."""
+        self._reset_clock()
+        self._reset_samples()
+        self.reference.reset()
+        rate = self.Ts / self.config.t_transfer
+        self.enabled, self.beta_weight = Ramp(rate), Ramp(rate)
+        self.v_schedule = math.nan                 # set by the first sample
+        self.steer_offset = 0.0
+        self.Mz = 0.0
+        self._parts = [0.0, 0.0]
+        self._out = (0.0,) * len(self.output_names)
+
+    def _law(self, delta: float, v: float, beta_ref: float, gamma_ref: float, beta_hat: float, yaw_rate: float,
+             w_beta: float) -> tuple[float, float]:
+        """The two parts of the unsaturated command [N m] (reported as the 4th and 5th outputs) at the
+        schedule speed ``v`` (within ``[v_min, v_max]``), the sideslip feedback weighted by ``w_beta``."""
+        raise NotImplementedError
+
+    def _sample(self, delta, vx_hat, beta_hat, yaw_rate, beta_valid, enable) -> float:
+        cfg = self.config
+        if self.shaped:
+            if self.v_schedule != self.v_schedule:             # the first sample
+                self.v_schedule = vx_hat
+            self.v_schedule += min(max(vx_hat - self.v_schedule, -self._dv), self._dv)
+            vs = self.v_schedule
+            w = smoothstep((vs - cfg.v_min) / cfg.v_fade) * self.enabled.step(enable)
+            w_beta = self.beta_weight.step(beta_valid)
+            delta = self._learn_steer_offset(delta, vs, yaw_rate)
+        else:
+            vs = self.v_schedule = vx_hat
+            w = 1.0 if enable and vx_hat >= cfg.v_min else 0.0
+            w_beta = 1.0
+        v = min(max(vs, cfg.v_min), cfg.v_max)
+        beta_ref, gamma_ref = self.reference.step(delta, v)
+        a, b = self._law(delta, v, beta_ref, gamma_ref, beta_hat, yaw_rate, w_beta)
+        self._parts[0], self._parts[1] = w * a, w * b
+        return w * (a + b)
+
+    def _learn_steer_offset(self, delta: float, v: float, yaw_rate: float) -> float:
+        """Update the steering offset in straight driving (module docstring); the steering less it [rad]."""
+        off = self.steer_offset
+        if (self._k_offset and v > self.config.v_min and abs(yaw_rate) < STRAIGHT_YAW_RATE
+                and abs(delta - off) < STRAIGHT_STEER):
+            off += self._k_offset * (delta - yaw_rate / self.model.steady_state_gains(v)[1] - off)
+            self.steer_offset = off = min(max(off, -STEER_OFFSET_MAX), STEER_OFFSET_MAX)
+        return delta - off
+
+    def _command(self, n: float) -> None:
+        """Rate limit (when shaped) and saturation of the command ``n`` [N m]."""
+        if self.shaped:
+            n = self.Mz + min(max(n - self.Mz, -self._dmz), self._dmz)
+        lim = self.Mz_max
+        self.Mz = lim if n > lim else (-lim if n < -lim else n)
+
+    def step(self, h: float, delta_m: float, vx_hat: float, beta_hat: float, yaw_rate_m: float,
+             yaw_rate_hat: float = 0.0, beta_valid: bool = True, dyc_enable: bool = True) -> None:
+        """Advance by ``h`` [s]; runs a sample at every multiple of ``Ts_control``.
+
+        A sample with a non-finite input (among those it uses) asks for a zero command and holds
+        the references.
+        """
+        t = self._tick(h)
+        ran = False
+        yaw_rate = yaw_rate_hat if self.config.yaw_rate_source else yaw_rate_m
+        for _ in range(self._samples_due(t)):
+            if math.isfinite(delta_m + vx_hat + beta_hat + yaw_rate):
+                n = self._sample(delta_m, vx_hat, beta_hat, yaw_rate, beta_valid, dyc_enable)
+            else:
+                n = self._parts[0] = self._parts[1] = 0.0
+            self._command(n)
+            ran = True
+        if ran:
+            self._out = (self.Mz, self.reference.beta, self.reference.gamma, *self._parts)

@@ -1,0 +1,102 @@
+"""A baseline ESC-style yaw-moment controller: yaw-rate PI plus a sideslip limiter.
+
+What production stability control does in spirit (van Zanten, *Bosch ESP systems: 5 years of
+experience*, SAE 2000-01-1633), realised with the in-wheel motors' yaw moment instead of
+single-wheel brake pressure, so that the evaluation shows
+what the LQR of :mod:`sideslip.control.dyc` buys over it:
+
+* the same friction-limited reference as the LQR (:mod:`sideslip.control.reference`); the
+  controller acts only when the yaw rate leaves a dead band around it (``deadband``), as ESC
+  stays out of normal driving;
+* PI on the yaw-rate error beyond the dead band, ``N_yaw = K_p (e + (1/T_i) int e dt)`` with
+  ``K_p = k_p I_zz``: ``k_p`` [1/s] is the yaw damping the controller adds, independent of the
+  car.  Anti-windup by conditional integration: the integral does not grow while the command
+  is saturated in the direction of the error, and it bleeds off with ``T_i`` once the error is
+  inside the dead band (ESC releases when the car is back on its line);
+* sideslip limiter: beyond ``|beta_hat| > beta_limit`` a moment ``K_beta (|beta_hat| - beta_limit)
+  sign(beta_hat)`` with ``K_beta = k_beta I_zz`` (a car sliding out of a left turn has ``beta < 0``
+  and needs a negative moment).  ``beta_limit = 0`` takes ``atan(0.02 mu g)`` (11 deg on dry
+  asphalt, 3.4 deg on snow), a sideslip bound common in the DYC literature.  It is weighted by
+  the estimator's ``valid``.
+
+The gains were chosen on training maneuvers (the LQR tuning set :data:`~sideslip.studies.control_eval.TUNING_MANEUVERS`,
+the small car's slalom and the Sonata's brake in a turn on snow of the estimator benchmark's training set, 2 seeds,
+``sensors+mismatch``): ``k_p`` 4 against 2 and 8, ``k_beta`` 10 against 0, 50 and 200 (at 50 and more the limiter
+overshoots: 22-27 deg of sideslip in the brake in a turn on snow against 11).
+
+Both parts then pass the fade-in, bumpless transfer, rate limit and saturation of
+:mod:`sideslip.control.base`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..constants import GRAVITY
+from ..params import param
+from ..signals import ESC_OUTPUTS
+from ..vehicles import VehicleParams
+from .base import YawMomentConfig, YawMomentController
+
+__all__ = ["EscConfig", "BaselineEsc", "sideslip_limit"]
+
+
+@dataclass(frozen=True)
+class EscConfig(YawMomentConfig):
+    """Parameters of :class:`BaselineEsc`."""
+
+    k_p: float = param(4.0, "InverseTime", "Yaw damping the PI adds: K_p = k_p I_zz", ge=0, le=100)
+    T_i: float = param(0.5, "Time", "Integral time of the yaw-rate PI", gt=0, le=100)
+    deadband: float = param(0.035, "AngularVelocity", "Yaw-rate error the ESC tolerates (dead band)", ge=0, le=1)
+    beta_limit: float = param(0.0, "Angle", "Sideslip beyond which the limiter acts (0: atan(0.02 mu g))", ge=0,
+                              le=0.5)
+    k_beta: float = param(10.0, "IntegralGain", "Sideslip-limiter gain: K_beta = k_beta I_zz", ge=0, le=1.0e4)
+
+
+def sideslip_limit(mu: float) -> float:
+    """``atan(0.02 mu g)`` [rad]: the stable-sideslip bound used when ``beta_limit`` is 0."""
+    return math.atan(0.02 * mu * GRAVITY)
+
+
+class BaselineEsc(YawMomentController):
+    """Yaw-rate PI with dead band and a sideslip limiter (see module docstring).
+
+    Parameters
+    ----------
+    config : EscConfig, optional
+    vehicle : VehicleParams, optional
+        Overrides ``config.vehicle``.
+    """
+
+    config_class = EscConfig
+    output_names = ESC_OUTPUTS
+
+    def __init__(self, config: EscConfig | None = None, vehicle: VehicleParams | None = None):
+        cfg = config or EscConfig()
+        super().__init__(cfg, vehicle)
+        self.K_p = cfg.k_p * self.vehicle.I_zz
+        self.K_beta = cfg.k_beta * self.vehicle.I_zz
+        self.beta_limit = cfg.beta_limit if cfg.beta_limit > 0 else sideslip_limit(cfg.mu)
+        self._bleed = math.exp(-self.Ts / cfg.T_i)
+        self.reset()
+
+    def reset(self) -> None:
+        """Zero command, references and integral (see :meth:`YawMomentController.reset`)."""
+        super().reset()
+        self.integral = 0.0
+
+    def _law(self, delta, v, beta_ref, gamma_ref, beta_hat, yaw_rate, w_beta):
+        cfg = self.config
+        e = gamma_ref - yaw_rate
+        e = e - cfg.deadband if e > cfg.deadband else (e + cfg.deadband if e < -cfg.deadband else 0.0)
+        lim = self.Mz_max
+        if e == 0.0:
+            self.integral *= self._bleed
+        elif not (self.Mz >= lim and e > 0.0 or self.Mz <= -lim and e < 0.0):   # conditional integration
+            self.integral += e * self.Ts
+        n_yaw = self.K_p * (e + self.integral / cfg.T_i)
+        over = abs(beta_hat) - self.beta_limit
+        # a car sliding out has the sideslip of the opposite sign to its (excess) yaw rate: a moment of
+        # the sideslip's sign turns it back
+        n_beta = w_beta * self.K_beta * math.copysign(over, beta_hat) if over > 0.0 else 0.0
+        return n_yaw, n_beta

@@ -1,0 +1,5 @@
+"""FMU BaselineEsc: the wrapper of its entry in :mod:`sideslip.fmi.catalogue`."""
+from sideslip.fmi.slave import fmu_class, keep_module_dict_alive
+
+keep_module_dict_alive(globals())  # see sideslip.fmi.slave.keep_module_dict_alive
+BaselineEsc = fmu_class("BaselineEsc", __name__)  # see sideslip.fmi.slave.fmu_class
