@@ -341,7 +341,7 @@ def test_requirements_are_bundled_for_pythonfmu_deploy(fmu_dir):
                 if line and not line.startswith("#")}
 
     assert reqs("VehiclePlant") == {"numpy"}
-    assert reqs("LqrDycController") == {"numpy", "control"}
+    assert reqs("LqrDycController") == {"numpy", "scipy", "control"}      # scipy: the feed-forward's state space
     assert reqs("Park2018Observer") == {"numpy", "scipy"}
     assert "control" in reqs("StabilityController")         # it embeds estimators and the LQR
     proc = subprocess.run([sys.executable, "-m", "pythonfmu", "deploy", "-f", str(fmu_dir / "LqrDycController.fmu")],
