@@ -42,7 +42,7 @@ def test_libcosim_master_equals_the_fmpy_master(fmu_dir, fmpy_runs):
     comps, conns = scenario_components(get_scenario(SCENARIO), [ESTIMATOR], CONTROLLER)
     lc = run_libcosim(comps, conns, duration=DURATION, fmu_dir=fmu_dir)
     assert set(lc.names) == set(fmpy_runs["jacobi"].names)
-    assert np.abs(lc["controller.Mz_cmd"]).max() > 100.0      # the controller acts: a real closed loop
+    assert np.abs(lc["controller.Mz_cmd"]).max() > 5.0        # it acts (drivable LQR: 21 N m at most here)
     worst, where = _difference(fmpy_runs["jacobi"], lc)
     assert worst <= TOL, f"{where}: {worst:.3g}"
     # the check can fail: the other coupling scheme differs far beyond the tolerance
