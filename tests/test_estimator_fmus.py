@@ -19,7 +19,8 @@ CASES = [("Park2018Observer", get_scenario("park2018_case2")), ("Kim2016Steering
          ("OpenLoopKinematic", get_scenario("park2018_case3")), ("LinearBicycleObserver", get_scenario("pi2011_high")),
          ("Nguyen2012DACMRKF", get_scenario("nguyen2012_cornering")), ("Pi2011FuzzyEKF", get_scenario("pi2011_low")),
          # Yoon: a shorter standstill so that the first seconds include driving (and GPS fixes to shift)
-         ("Yoon2014DualKF", get_scenario("yoon2014_jturn_asphalt_banked", maneuver_t_go=1.0))]
+         ("Yoon2014DualKF", get_scenario("yoon2014_jturn_asphalt_banked", maneuver_t_go=1.0)),
+         ("SideslipFusion", get_scenario("park2018_case2"))]
 
 
 @pytest.fixture(scope="module")

@@ -336,12 +336,11 @@ class CovarianceProbe:
         self.est.step(h, *u)
         if self.est._samples == before:         # P changes only in a filter sample
             return
-        for kf in vars(self.est).values():
-            if isinstance(kf, KalmanFilter):
-                P = kf.P
-                assert np.abs(P - P.T).max() <= 1e-12 * np.abs(P).max()     # symmetric to rounding
-                assert np.linalg.eigvalsh(P).min() > 0.0
-                self.checks += 1
+        for kf in self.est.kalman_filters():
+            P = kf.P
+            assert np.abs(P - P.T).max() <= 1e-12 * np.abs(P).max()     # symmetric to rounding
+            assert np.linalg.eigvalsh(P).min() > 0.0
+            self.checks += 1
 
     def outputs(self):
         return self.est.outputs()

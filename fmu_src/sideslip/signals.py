@@ -171,6 +171,12 @@ _ENTRIES = [
     _real("bias_ay_hat", "Acceleration", "Estimated bias of ay_m", -20.0, 20.0),
     _real("gps_delay_hat", "Time", "Estimated (or configured) delay of the GPS velocity", 0.0, 5.0),
     _bool("mag_disturbed", "True while the magnetometer is judged disturbed (field norm off unity)"),
+    _real("steer_offset_hat", "Angle", "Estimated offset of delta_m (road-wheel angle)", -0.5, 0.5),
+    _real("mu_hat", "FrictionCoefficient", "Estimated tire-road friction coefficient", 0.0, 3.0),
+    _real("friction_utilisation", "Dimensionless", "Estimated friction utilisation of the more utilised axle "
+          "(lateral force over friction times load)", 0.0, 1.0),
+    _real("slide_probability", "Dimensionless", "Probability of the IMM's slide filter (0 for a single EKF)",
+          0.0, 1.0),
     _real("nonlinear_factor", "Dimensionless", "Fuzzy nonlinear factor (0: linear tires, 1: at the limit)",
           0.0, 1.0),
     _real("Fyf_hat", "Force", "Estimated front-axle lateral force", -1.0e5, 1.0e5),

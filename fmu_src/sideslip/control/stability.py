@@ -34,7 +34,7 @@ class StabilityControllerConfig(LqrDycConfig):
     """:class:`LqrDycConfig` plus the choice of the embedded estimator."""
 
     estimator: str = param("Park2018Observer", "Dimensionless", "Embedded sideslip estimator (estimator FMU name)",
-                           choices=tuple(sorted(ESTIMATORS)))
+                           choices=tuple(ESTIMATORS))
     Ts: float = param(0.0, "Time", "Sample period of the embedded estimator (0: its own default)", ge=0, le=1.0)
     estimator_profile: int = param(1, "Dimensionless", "Profile of the embedded estimator: 0 as published, "
                                    "1 hardened (its parameter profile)", choices=(0, 1))

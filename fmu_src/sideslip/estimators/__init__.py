@@ -7,6 +7,7 @@ hardened (the default) or as published; what the hardened profiles share is in
 :mod:`~sideslip.estimators.hardening` and :mod:`~sideslip.estimators.delay` (GPS latency).
 """
 from .base import Estimator, EstimatorConfig
+from .fusion import SideslipFusion, SideslipFusionConfig
 from .baselines import BicycleObserverConfig, LinearBicycleObserver, OpenLoopConfig, OpenLoopKinematic
 from .kalman import KalmanFilter
 from .kim2016 import Kim2016Config, Kim2016SteeringEKF
@@ -15,12 +16,14 @@ from .park2018 import Park2018Config, Park2018Observer
 from .pi2011 import Pi2011Config, Pi2011FuzzyEKF
 from .yoon2014 import Yoon2014Config, Yoon2014DualKF
 
-ESTIMATORS = {cls.__name__: cls for cls in (Park2018Observer, Kim2016SteeringEKF, Nguyen2012DACMRKF,
-                                            Pi2011FuzzyEKF, Yoon2014DualKF, OpenLoopKinematic,
-                                            LinearBicycleObserver)}
-"""Estimator classes by name (each FMU of role ``estimator`` carries the same name)."""
+ESTIMATORS = {cls.__name__: cls for cls in (Kim2016SteeringEKF, LinearBicycleObserver, Nguyen2012DACMRKF,
+                                            OpenLoopKinematic, Park2018Observer, Pi2011FuzzyEKF, Yoon2014DualKF,
+                                            SideslipFusion)}
+"""Estimator classes by name (each FMU of role ``estimator`` carries the same name), in the order of the
+StabilityController's ``estimator_index`` (new estimators are appended so that the numbers stay)."""
 
 __all__ = ["ESTIMATORS", "Estimator", "EstimatorConfig", "KalmanFilter", "OpenLoopKinematic", "OpenLoopConfig",
            "LinearBicycleObserver", "BicycleObserverConfig", "Park2018Observer", "Park2018Config",
            "Kim2016SteeringEKF", "Kim2016Config", "Nguyen2012DACMRKF", "Nguyen2012Config",
-           "Pi2011FuzzyEKF", "Pi2011Config", "Yoon2014DualKF", "Yoon2014Config"]
+           "Pi2011FuzzyEKF", "Pi2011Config", "Yoon2014DualKF", "Yoon2014Config", "SideslipFusion",
+           "SideslipFusionConfig"]

@@ -28,6 +28,7 @@ from ..model import SampledModel
 from ..params import check, param
 from ..signals import ESTIMATOR_COMMON_OUTPUTS, WHEEL_SPEEDS_M
 from ..vehicles import VehicleConfig, VehicleParams
+from .kalman import KalmanFilter
 
 __all__ = ["EstimatorConfig", "Estimator", "undriven_wheels", "input_enum", "beta_std", "lowpass"]
 
@@ -123,6 +124,10 @@ class Estimator(SampledModel):
 
     def _init_filter(self) -> None:
         """Reset the method's own state (override)."""
+
+    def kalman_filters(self) -> list:
+        """The Kalman filters the method holds (its attributes that are one; override for filters held otherwise)."""
+        return [v for v in vars(self).values() if isinstance(v, KalmanFilter)]
 
     def speed(self, u) -> float:
         """Speed from the undriven wheels, ``R (w_l + w_r) / 2`` (Park 2018 eq. 1) [m/s]; the mean of

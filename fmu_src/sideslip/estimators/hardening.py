@@ -35,10 +35,28 @@ from .base import Estimator, EstimatorConfig, lowpass
 from .roll import RollCompensator
 
 __all__ = ["PUBLISHED", "HARDENED", "ProfiledConfig", "GpsLatencyConfig", "LinearTireConfig", "ProfiledEstimator",
-           "InnovationMonitor", "model_sideslip_std", "TireLinearity", "KinematicCheck", "ModelTrust"]
+           "InnovationMonitor", "ValidityGate", "valid_std_max_param", "valid_hold_param",
+           "nis_limit_param", "model_sideslip_std", "TireLinearity", "KinematicCheck", "ModelTrust"]
 
 PUBLISHED, HARDENED = 0, 1
 """Values of the ``profile`` parameter."""
+
+
+def valid_std_max_param(default: float = 0.026, prefix: str = ""):
+    """The ``valid_std_max`` parameter (:class:`ValidityGate`); ``prefix`` starts its description."""
+    return param(default, "Angle", prefix + "beta_hat_std above which the estimate is not valid", gt=0, le=1.0)
+
+
+def valid_hold_param(default: float = 1.0, prefix: str = ""):
+    """The ``valid_hold`` parameter (:class:`ValidityGate`); ``prefix`` starts its description."""
+    return param(default, "Time", prefix + "how long the estimate must have been valid without a break before valid is "
+                 "reported (a filter needs time to re-converge)", ge=0, le=60)
+
+
+def nis_limit_param(default: float = 25.0, prefix: str = ""):
+    """The ``nis_limit`` parameter (:class:`InnovationMonitor`); ``prefix`` starts its description."""
+    return param(default, "Dimensionless", prefix + "innovation consistency (NIS per degree of freedom over the method's "
+                 "window) above which the estimate is not valid", gt=1, le=1e6)
 
 
 @dataclass(frozen=True)
@@ -48,12 +66,9 @@ class ProfiledConfig(EstimatorConfig):
     profile: int = param(1, "Dimensionless", "0: the method as published (the papers' tables); 1: hardened for "
                          "sensors and vehicles other than the paper's (each addition documented with the method)",
                          choices=(PUBLISHED, HARDENED))
-    valid_std_max: float = param(0.026, "Angle", "Hardened: beta_hat_std above which the estimate is not valid",
-                                 gt=0, le=1.0)
-    valid_hold: float = param(1.0, "Time", "Hardened: how long the estimate must have been valid without a break "
-                              "before valid is reported (a filter needs time to re-converge)", ge=0, le=60)
-    nis_limit: float = param(25.0, "Dimensionless", "Hardened: innovation consistency (NIS per degree of freedom over "
-                             "the method's window) above which the estimate is not valid", gt=1, le=1e6)
+    valid_std_max: float = valid_std_max_param(prefix="Hardened: ")
+    valid_hold: float = valid_hold_param(prefix="Hardened: ")
+    nis_limit: float = nis_limit_param(prefix="Hardened: ")
 
 
 @dataclass(frozen=True)
@@ -84,6 +99,40 @@ class LinearTireConfig(ProfiledConfig):
                                  "(offsets slower than this drop out)", gt=0, le=60)
 
 
+class ValidityGate:
+    """What ``valid`` reports on top of the filter's own flag: an estimate whose reported std exceeds
+    ``valid_std_max`` is not valid, and after any break ``valid`` is reported only once the estimate
+    has been valid for ``valid_hold`` seconds (module docstring).
+
+    Parameters
+    ----------
+    std_max : float
+        Largest reported std of a valid estimate [rad].
+    hold : float
+        Time without a break before ``valid`` is reported [s].
+    """
+
+    __slots__ = ("std_max", "hold", "_since")
+
+    def __init__(self, std_max: float, hold: float):
+        self.std_max, self.hold = std_max, hold
+        self._since = None
+
+    def __call__(self, est: Estimator, out: tuple) -> tuple:
+        """The packed outputs ``out`` of ``est`` with its ``valid`` gated; sets ``est.valid`` false above the
+        std limit."""
+        if est.beta_std > self.std_max:
+            est.valid = False
+        if not est.valid:
+            self._since = None
+            return out[:5] + (0.0,) + out[6:]
+        if self._since is None:
+            self._since = est.t
+        if est.t - self._since < self.hold - 1e-9:
+            return out[:5] + (0.0,) + out[6:]           # the filter's own flag stays, the output waits
+        return out
+
+
 class ProfiledEstimator(Estimator):
     """An estimator with a published and a hardened profile (``self.hardened``; a method may turn it
     off for a variant it does not harden)."""
@@ -92,23 +141,12 @@ class ProfiledEstimator(Estimator):
 
     def reset(self) -> None:
         self.hardened = self.config.profile == HARDENED
-        self._valid_since = None
+        self._gate = ValidityGate(self.config.valid_std_max, self.config.valid_hold)
         super().reset()
 
     def _pack(self) -> tuple:
-        if self.hardened:
-            cfg = self.config
-            if self.beta_std > cfg.valid_std_max:
-                self.valid = False
-            if not self.valid:
-                self._valid_since = None
-            elif self._valid_since is None:
-                self._valid_since = self.t
-            out = super()._pack()
-            if self.valid and self.t - self._valid_since < cfg.valid_hold - 1e-9:
-                out = out[:5] + (0.0,) + out[6:]            # the filter's own flag stays, the output waits
-            return out
-        return super()._pack()
+        out = super()._pack()
+        return self._gate(self, out) if self.hardened else out
 
 
 class InnovationMonitor:

@@ -167,6 +167,12 @@ _ENTRIES = (
             "Yoon & Peng 2014 sideslip estimation: heading EKF (yaw, roll) on gyros and a 3-axis magnetometer with "
             "magnetic-disturbance rejection, sideslip KF on [U, b_x, V, b_y] with GPS velocity, measurement "
             "shifting for the GPS delay, delay identification, bicycle model in straight driving"),
+    FmuSpec("SideslipFusion", "sideslip_fusion_fmu", "sideslip.estimators.fusion:SideslipFusion",
+            "sideslip.estimators.fusion:SideslipFusionConfig", "estimator",
+            "Sideslip estimator fusing GNSS velocity (delay identified and compensated), IMU, wheel speeds and "
+            "steering: kinematic EKF (or IMM) with online gyro, accelerometer, steering and rolling-radius offsets "
+            "and a brush-tire pseudo-measurement per axle whose cornering stiffnesses and friction are estimated; "
+            "in-vehicle mode without GNSS"),
     FmuSpec("LqrDycController", "sideslip_lqr_dyc_fmu", "sideslip.control.dyc:LqrDycController",
             "sideslip.control.dyc:LqrDycConfig", "controller",
             "LQR direct-yaw-moment controller for in-wheel-motor EVs (Nguyen et al. 2012 section IV): "

@@ -90,6 +90,9 @@ ROWS = (
     Row("OpenLoopKinematic", "OpenLoopKinematic", kind="reference"),
     *(Row(f"{name}/published", name, (("profile", 0),)) for name in PAPER_METHODS),
     *(Row(f"{name}/hardened", name, (("profile", 1),)) for name in PAPER_METHODS),
+    Row("SideslipFusion/EKF", "SideslipFusion", (("formulation", 0),)),
+    Row("SideslipFusion/IMM", "SideslipFusion", (("formulation", 1),)),
+    Row("SideslipFusion/in-vehicle", "SideslipFusion", (("use_gnss", False),)),
 )
 """The rows of the benchmark."""
 

@@ -89,7 +89,9 @@ SOURCES = (
     Source("LQR published / truth", "LqrDycController", None, (("control_profile", 0),)),
     Source("LQR / truth", "LqrDycController"),
     *(Source(f"LQR / {e}", "LqrDycController", e) for e in PAPER_METHODS),
+    Source("LQR / SideslipFusion", "LqrDycController", "SideslipFusion"),
     Source(f"StabilityController ({BEST_TWO[0]})", "StabilityController", BEST_TWO[0]),
+    Source("StabilityController (SideslipFusion)", "StabilityController", "SideslipFusion"),
     Source("ESC / truth", "BaselineEsc"),
     *(Source(f"ESC / {e}", "BaselineEsc", e) for e in BEST_TWO),
 )

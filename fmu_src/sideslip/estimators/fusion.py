@@ -1,0 +1,629 @@
+"""The project's own estimator: GNSS, IMU, wheel speeds and steering fused with a self-calibrating tire model.
+
+Built from the benchmark's failure cases (:mod:`sideslip.studies.benchmark`): the papers' methods
+each trust one thing a user's car does not give them - an offset-free gyro (Nguyen 2012), a
+calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and linear tires (Kim
+2016, Pi 2011, the bicycle observer).  :class:`SideslipFusion` trusts none of them alone:
+
+* **Kinematic model** (the time update, :func:`kinematic_step`): the body-frame velocity driven by
+  the accelerometers, ``dvx/dt = a_x - b_ax + r v_y``, ``dvy/dt = a_y - b_ay - r v_x`` with
+  ``r = r_m - b_r`` (the accelerometer's lateral reading roll-compensated with the vehicle's roll
+  model, :class:`~sideslip.estimators.roll.RollCompensator`), and the heading ``dpsi/dt = r``.
+  Exact for any tire and friction; it drifts with the offsets, which are states.
+* **GNSS velocity** (:func:`gnss_model`): ``v_e = v_x cos psi - v_y sin psi``,
+  ``v_n = v_x sin psi + v_y cos psi`` at the fix's own time: the state, covariance and inputs of the
+  last ``max_delay`` seconds are kept and a delayed fix is applied at its sample and re-propagated
+  to now (measurement shifting, as in Yoon 2014 Fig. 7).  The delay is identified while turning
+  (:class:`~sideslip.estimators.delay.GpsLatency`); its uncertainty enters the fix's noise as the
+  acceleration times the delay's std.  GNSS makes the heading, the gyro offset, the accelerometer
+  offsets, the rolling radius and the tire parameters observable whenever the car accelerates or
+  turns.
+* **Wheel speeds** (:func:`wheel_model`): the undriven axle's mean speed is ``(1 + e_w) v_x``
+  (``e_w`` the rolling-radius error, a state); its noise grows with the longitudinal acceleration
+  (a braked wheel slips).
+* **Tire pseudo-measurements** (:func:`axle_pseudo`), one per axle, every sample: the axle's lateral
+  force from the force and moment balances (:func:`~sideslip.bicycle.axle_forces`, from the measured
+  lateral and yaw accelerations) gives its slip angle through a brush (Fiala) tire,
+  ``alpha = 3 mu F_z / C (1 - (1 - |F_y| / (mu F_z))^(1/3))``, whose cornering stiffness
+  ``C = s C_nominal(mu)`` (the vehicle file's stiffness, softer on low friction, :func:`axle_stiffness`)
+  and friction ``mu`` are states (log-scaled, bounded; the friction also from below by the measured
+  acceleration, ``mu >= 0.9 |a| / g``).  The slip angles tie
+  the lateral velocity to the yaw rate and the steering:
+  ``v_y - l_r r + v_x alpha_r = 0`` and ``v_y + l_f r - v_x (delta_m - d_delta - alpha_f) = 0``
+  (``d_delta`` the steering offset, a state).  With GNSS they calibrate the tire model; without
+  it they are what holds the lateral velocity.  Their noise is the tire's transient (relaxation)
+  and the brush model's error, which grows with the friction utilisation ``|F_y| / (mu F_z)``.
+
+State: :class:`Fs` (11).  Two formulations (``formulation``), compared on the benchmark
+(``docs/estimator.md``):
+
+* ``0`` **EKF**: one extended Kalman filter on the model above;
+* ``1`` **IMM**: an interacting multiple model of two such filters, one trusting the tire model
+  (``grip``) and one with its pseudo-measurements ``slide_factor`` times less certain and
+  more process noise on the lateral velocity (``slide``), mixed every sample by their likelihoods.
+
+Without GNSS (``use_gnss`` false, or while ``gps_valid`` is false) the same filter runs on the
+kinematic model, the wheel speeds and the tire pseudo-measurements (in-vehicle mode): the heading
+and the GNSS-only observable states then random-walk with their process noise, so the reported std
+grows honestly; at the return of GNSS after the heading has become uncertain (``heading_reset``)
+the heading is re-initialised from the fix's course.
+
+Bounded states: the stiffness scales ``s`` within ``[stiffness_min, stiffness_max]``, the friction
+within ``[mu_min, mu_max]`` (clamped after each update; their variance is capped at the prior's so
+that an unobservable parameter cannot grow without bound).  The gyro offset is not bounded (a
+clamped Kalman state leaves its covariance claiming a freedom it does not have).
+
+Reported std and validity: ``beta_hat_std`` is the first-order std of ``atan2(v_y, v_x)`` from the
+filter covariance, inflated by the GNSS innovations' consistency
+(:class:`~sideslip.estimators.hardening.InnovationMonitor`); ``valid`` is false below ``v_min``,
+before the heading is initialised in GNSS mode, while the GNSS innovations are inconsistent, and
+above ``valid_std_max``, and waits ``valid_hold`` after any break
+(:class:`~sideslip.estimators.hardening.ValidityGate`).
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from ..bicycle import axle_forces
+from ..constants import GRAVITY
+from ..params import param
+from ..signals import WHEEL_SPEEDS_M
+from .base import Estimator, EstimatorConfig, beta_std, input_enum, lowpass
+from .delay import GpsLatency
+from .hardening import (GpsLatencyConfig, InnovationMonitor, ValidityGate, nis_limit_param, valid_hold_param,
+                        valid_std_max_param)
+from .kalman import KalmanFilter
+from .roll import RollCompensator
+
+__all__ = ["SideslipFusionConfig", "SideslipFusion", "Fs", "EKF", "IMM", "kinematic_step", "gnss_model",
+           "wheel_model", "axle_pseudo", "axle_stiffness", "fiala_slip"]
+
+EKF, IMM = 0, 1
+"""Values of the ``formulation`` parameter."""
+
+
+class Fs(IntEnum):
+    """State of :class:`SideslipFusion`."""
+    VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W = range(11)
+
+
+# ------------------------------------------------------------------------------ the models
+def kinematic_step(x: np.ndarray, ax: float, ay: float, r_m: float, ts: float) -> tuple[np.ndarray, np.ndarray]:
+    """One Euler step of the kinematic model (module docstring) and its Jacobian.
+
+    Parameters
+    ----------
+    x : ndarray
+        State (:class:`Fs`).
+    ax, ay : float
+        Measured longitudinal and roll-compensated lateral acceleration [m/s2].
+    r_m : float
+        Measured yaw rate [rad/s].
+    ts : float
+        Step [s].
+    """
+    vx, vy, psi, b_r, b_ax, b_ay = x[:6].tolist()
+    r = r_m - b_r
+    xp = x.copy()
+    xp[Fs.VX] = vx + ts * (ax - b_ax + r * vy)
+    xp[Fs.VY] = vy + ts * (ay - b_ay - r * vx)
+    xp[Fs.PSI] = psi + ts * r
+    F = np.eye(len(x))
+    F[Fs.VX, Fs.VY], F[Fs.VX, Fs.B_R], F[Fs.VX, Fs.B_AX] = ts * r, -ts * vy, -ts
+    F[Fs.VY, Fs.VX], F[Fs.VY, Fs.B_R], F[Fs.VY, Fs.B_AY] = -ts * r, ts * vx, -ts
+    F[Fs.PSI, Fs.B_R] = -ts
+    return xp, F
+
+
+def gnss_model(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The GNSS velocity ``(v_e, v_n)`` of the state and its Jacobian."""
+    vx, vy, psi = x[Fs.VX], x[Fs.VY], x[Fs.PSI]
+    c, s = math.cos(psi), math.sin(psi)
+    H = np.zeros((2, len(x)))
+    H[0, Fs.VX], H[0, Fs.VY], H[0, Fs.PSI] = c, -s, -vx * s - vy * c
+    H[1, Fs.VX], H[1, Fs.VY], H[1, Fs.PSI] = s, c, vx * c - vy * s
+    return np.array([vx * c - vy * s, vx * s + vy * c]), H
+
+
+def wheel_model(x: np.ndarray) -> tuple[float, np.ndarray]:
+    """The undriven axle's mean wheel speed ``(1 + e_w) v_x`` [m/s] and its Jacobian row."""
+    h = np.zeros(len(x))
+    h[Fs.VX], h[Fs.E_W] = 1.0 + x[Fs.E_W], x[Fs.VX]
+    return (1.0 + x[Fs.E_W]) * x[Fs.VX], h
+
+
+def fiala_slip(force: float, stiffness: float, f_max: float, u_max: float) -> tuple[float, float, float]:
+    """Slip angle of a brush (Fiala) tire carrying ``force`` [N], and its derivatives.
+
+    ``alpha = 3 F_max / C (1 - (1 - u)^(1/3))`` with ``u = |F| / F_max`` (clipped at ``u_max``: at
+    saturation the slip angle is not defined by the force), the inverse of
+    ``F = C alpha - C^2 alpha |alpha| / (3 F_max) + C^3 alpha^3 / (27 F_max^2)``; ``F / C`` for small
+    forces.
+
+    Returns
+    -------
+    tuple of float
+        ``alpha`` [rad], ``d alpha / d ln C`` (``-alpha``), ``d alpha / d ln F_max`` [rad] and the
+        utilisation ``u`` (unclipped).
+    """
+    u = abs(force) / f_max
+    uc = u if u < u_max else u_max
+    w = (1.0 - uc) ** (1.0 / 3.0)
+    a = 3.0 * f_max / stiffness
+    alpha = math.copysign(a * (1.0 - w), force)
+    # beyond u_max the derivative of the clipped curve, not zero: a friction estimated too low must be able to
+    # climb back out of saturation
+    d_fmax = a * ((1.0 - w) - uc / (3.0 * w * w))                    # <= 0: more friction, less slip
+    if force < 0.0:
+        d_fmax = -d_fmax
+    return alpha, -alpha, d_fmax, u
+
+
+def axle_stiffness(c_hi: float, c_lo: float, mu_lo: float, mu: float) -> tuple[float, float]:
+    """The vehicle file's axle cornering stiffness at friction ``mu`` (linear between ``mu_lo`` and 1, held
+    outside: tires on snow are softer in their linear range too) [N/rad] and ``d ln C / d ln mu``."""
+    w = (mu - mu_lo) / (1.0 - mu_lo)
+    if w >= 1.0:
+        return c_hi, 0.0
+    if w <= 0.0:
+        return c_lo, 0.0
+    c = c_lo + w * (c_hi - c_lo)
+    return c, mu * (c_hi - c_lo) / ((1.0 - mu_lo) * c)
+
+
+def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tuple:
+    """The two tire pseudo-measurements (module docstring): for each axle the residual ``h(x)`` (measured 0),
+    its Jacobian row and the axle's slip angle and utilisation.
+
+    Parameters
+    ----------
+    x : ndarray
+        State (:class:`Fs`).
+    inp : tuple
+        ``(r_m, delta_m, F_yf, F_yr, F_zf, F_zr)`` of the sample.
+    geometry : tuple
+        ``(l_f, l_r, C_f, C_r, C_f_lo, C_r_lo, mu_lo)``: the vehicle file's axle stiffnesses at friction 1 and
+        ``mu_lo`` (:func:`axle_stiffness`); the states scale them.
+    u_max : float
+        Utilisation beyond which the slip angle is not defined by the force.
+
+    Returns
+    -------
+    tuple
+        ``((h_f, row_f, alpha_f, u_f), (h_r, row_r, alpha_r, u_r))``.
+    """
+    r_m, delta, fyf, fyr, fzf, fzr = inp
+    l_f, l_r, c_f, c_r, c_f_lo, c_r_lo, mu_lo = geometry
+    vx, vy, b_r, d_delta = x[Fs.VX], x[Fs.VY], x[Fs.B_R], x[Fs.D_DELTA]
+    mu = math.exp(x[Fs.LN_MU])
+    r = r_m - b_r
+    n = len(x)
+    cf, kf = axle_stiffness(c_f, c_f_lo, mu_lo, mu)
+    cr, kr = axle_stiffness(c_r, c_r_lo, mu_lo, mu)
+    a_f, da_cf, da_mf, u_f = fiala_slip(fyf, cf * math.exp(x[Fs.LN_CF]), mu * fzf, u_max)
+    a_r, da_cr, da_mr, u_r = fiala_slip(fyr, cr * math.exp(x[Fs.LN_CR]), mu * fzr, u_max)
+    steer = delta - d_delta
+    h_f = vy + l_f * r - vx * (steer - a_f)
+    row_f = np.zeros(n)
+    row_f[Fs.VX], row_f[Fs.VY], row_f[Fs.B_R], row_f[Fs.D_DELTA] = a_f - steer, 1.0, -l_f, vx
+    row_f[Fs.LN_CF], row_f[Fs.LN_MU] = vx * da_cf, vx * (da_mf + kf * da_cf)
+    h_r = vy - l_r * r + vx * a_r
+    row_r = np.zeros(n)
+    row_r[Fs.VX], row_r[Fs.VY], row_r[Fs.B_R] = a_r, 1.0, l_r
+    row_r[Fs.LN_CR], row_r[Fs.LN_MU] = vx * da_cr, vx * (da_mr + kr * da_cr)
+    return (h_f, row_f, a_f, u_f), (h_r, row_r, a_r, u_r)
+
+
+# ------------------------------------------------------------------------------ configuration
+@dataclass(frozen=True)
+class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
+    """Parameters of :class:`SideslipFusion`."""
+
+    formulation: int = param(0, "Dimensionless", "0: one EKF; 1: IMM of a grip and a slide filter (module "
+                             "docstring)", choices=(EKF, IMM))
+    use_gnss: bool = param(True, "Dimensionless", "Use the GNSS velocity while gps_valid (false: in-vehicle sensors "
+                           "only)")
+    # kinematic model and offsets
+    sigma_accel: float = param(0.3, "Acceleration", "Process noise of the kinematic model (accelerometer noise, "
+                               "roll and pitch errors) as an acceleration", gt=0, le=10)
+    sigma_gyro: float = param(0.002, "AngularVelocity", "Gyro noise for the heading's process noise", gt=0, le=1)
+    gyro_offset_std0: float = param(0.015, "AngularVelocity", "Initial uncertainty of the gyro offset", gt=0, le=1)
+    gyro_offset_walk: float = param(1.7e-5, "AngularVelocity", "Random walk of the gyro offset per sqrt(s)",
+                                    gt=0, le=1)
+    accel_offset_std0: float = param(0.3, "Acceleration", "Initial uncertainty of the accelerometer offsets",
+                                     gt=0, le=10)
+    accel_offset_walk: float = param(0.01, "Acceleration", "Random walk of the accelerometer offsets (road grade "
+                                     "and bank) per sqrt(s)", gt=0, le=10)
+    steer_offset_std0: float = param(0.005, "Angle", "Initial uncertainty of the steering offset", gt=0, le=0.5)
+    radius_error_std0: float = param(0.02, "Dimensionless", "Initial uncertainty of the rolling-radius error",
+                                     gt=0, le=0.5)
+    # tire model
+    stiffness_std0: float = param(0.35, "Dimensionless", "Initial uncertainty of the log cornering-stiffness scales "
+                                  "(0.35: about 30 percent)", gt=0, le=3)
+    stiffness_walk: float = param(0.003, "Dimensionless", "Random walk of the log stiffness scales per sqrt(s)",
+                                  gt=0, le=1)
+    stiffness_min: float = param(0.4, "Dimensionless", "Smallest stiffness scale", gt=0, le=1)
+    stiffness_max: float = param(2.5, "Dimensionless", "Largest stiffness scale", ge=1, le=10)
+    mu0: float = param(1.0, "FrictionCoefficient", "Friction assumed until it shows", ge=0.05, le=1.5)
+    mu_std0: float = param(0.15, "Dimensionless", "Uncertainty of the log friction", gt=0, le=3)
+    mu_walk: float = param(0.02, "Dimensionless", "Random walk of the log friction per sqrt(s) (the road changes)",
+                           gt=0, le=10)
+    mu_min: float = param(0.1, "FrictionCoefficient", "Smallest friction", gt=0, le=1)
+    mu_max: float = param(1.3, "FrictionCoefficient", "Largest friction", ge=0.5, le=3)
+    utilisation_max: float = param(0.95, "Dimensionless", "Friction utilisation beyond which the tire model gives "
+                                   "no slip angle", gt=0, lt=1)
+    sigma_slip: float = param(0.004, "Angle", "Slip-angle noise of the tire pseudo-measurements (sensor noise, "
+                              "unmodelled dynamics)", gt=0, le=1)
+    slip_model_error: float = param(1.0, "Dimensionless", "Relative error of the brush model's slip angle at full "
+                                    "utilisation (grows with utilisation squared)", ge=0, le=10)
+    relaxation_length: float = param(0.5, "Length", "Tire relaxation length: the transient slip error is the slip "
+                                     "rate times relaxation_length / v_x", ge=0, le=10)
+    slip_correlation_time: float = param(0.1, "Time", "Correlation time of the tire model's error: each sample's "
+                                         "pseudo-measurement variance is multiplied by it over Ts (an error that "
+                                         "lasts is not new information every sample)", ge=0, le=10)
+    adapt_window: float = param(0.5, "Time", "Window over which the tire pseudo-measurements' noise is matched to "
+                                "their innovations (covariance matching: a model that stops explaining the car is "
+                                "trusted less)", gt=0, le=60)
+    pseudo_gate: float = param(3.0, "Dimensionless", "Normalised residual beyond which a tire pseudo-measurement "
+                               "is down-weighted (Huber) so that a transient the model cannot follow does not "
+                               "drag the state", gt=0, le=100)
+    yaw_acc_cutoff: float = param(3.0, "Frequency", "Low-pass cut-off of the yaw acceleration in the axle forces",
+                                  gt=0, le=50)
+    # GNSS
+    sigma_gnss: float = param(0.1, "Velocity", "GNSS velocity noise per axis", gt=0, le=10)
+    max_delay: float = param(0.5, "Time", "Largest GNSS delay handled (length of the history)", gt=0, le=2)
+    heading_reset: float = param(0.2, "Angle", "Heading std above which the heading is re-initialised from the "
+                                 "course at the next fix", gt=0, le=3.2)
+    course_speed: float = param(3.0, "Velocity", "Speed below which a fix does not initialise the heading",
+                                gt=0, le=50)
+    # IMM
+    slide_factor: float = param(10.0, "Dimensionless", "IMM: how much less certain the slide filter's tire "
+                                "pseudo-measurements are", ge=1, le=1e4)
+    slide_accel: float = param(1.0, "Acceleration", "IMM: extra process noise of the slide filter's lateral "
+                               "velocity, as an acceleration", ge=0, le=20)
+    mode_switch: float = param(0.01, "Dimensionless", "IMM: probability per sample of switching filter", gt=0, lt=0.5)
+    # validity
+    valid_std_max: float = valid_std_max_param(0.03)
+    valid_hold: float = valid_hold_param(0.5)
+    nis_limit: float = nis_limit_param(25.0)
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.mu_min >= self.mu_max:
+            raise ValueError(f"mu_min must be below mu_max (got {self.mu_min} >= {self.mu_max})")
+
+
+# ------------------------------------------------------------------------------ one filter
+class _Mode:
+    """One extended Kalman filter on the model (module docstring), with its pseudo-measurement scale and extra
+    lateral process noise (the IMM's modes; the EKF has one)."""
+
+    __slots__ = ("kf", "r_scale", "q_vy", "monitors")
+
+    def __init__(self, kf: KalmanFilter, r_scale: float, q_vy: float, window: int):
+        self.kf, self.r_scale, self.q_vy = kf, r_scale, q_vy
+        self.monitors = (InnovationMonitor(window), InnovationMonitor(window))   # per axle: covariance matching
+
+
+class SideslipFusion(Estimator):
+    """GNSS / IMU / wheel-speed / steering fusion with a self-calibrating tire model (module docstring)."""
+
+    config_class = SideslipFusionConfig
+    input_names = ("ax_m", "ay_m", "yaw_rate_m", "delta_m", *WHEEL_SPEEDS_M, "gps_ve", "gps_vn", "gps_fresh",
+                   "gps_valid")
+    extra_outputs = ("yaw_hat", "bias_yaw_rate_hat", "bias_ax_hat", "bias_ay_hat", "steer_offset_hat", "Cf_hat",
+                     "Cr_hat", "mu_hat", "friction_utilisation", "gps_delay_hat", "slide_probability")
+    needs = ("the vehicle's geometry and mass roughly right; GNSS velocity for the best accuracy (without it the "
+             "tire model, calibrated while GNSS was there, carries the estimate)")
+    In = input_enum("In", input_names)
+
+    def _init_filter(self) -> None:
+        cfg, ts, v = self.config, self.Ts, self.vehicle
+        self._geometry = (v.l_f, v.l_r, v.C_f_nominal, v.C_r_nominal, v.C_f_nominal_lo, v.C_r_nominal_lo, v.mu_lo)
+        self._fz_static = (v.m * GRAVITY * v.l_r / v.l, v.m * GRAVITY * v.l_f / v.l)
+        self._front_undriven = v.drive_split_front <= 0.0
+        self._roll = RollCompensator(v, ts)
+        x0 = np.zeros(len(Fs))
+        x0[Fs.LN_MU] = math.log(cfg.mu0)
+        p0 = np.array([1.0, 1.0, 10.0, cfg.gyro_offset_std0, cfg.accel_offset_std0, cfg.accel_offset_std0,
+                       cfg.steer_offset_std0, cfg.stiffness_std0, cfg.stiffness_std0, cfg.mu_std0,
+                       cfg.radius_error_std0]) ** 2
+        self._p_cap = p0.copy()
+        self._p_cap[:3] = np.inf                               # velocity and heading: no cap
+        q = np.array([cfg.sigma_accel * ts, cfg.sigma_accel * ts, cfg.sigma_gyro * ts,
+                      cfg.gyro_offset_walk * math.sqrt(ts), cfg.accel_offset_walk * math.sqrt(ts),
+                      cfg.accel_offset_walk * math.sqrt(ts), 1e-6 * math.sqrt(ts), cfg.stiffness_walk * math.sqrt(ts),
+                      cfg.stiffness_walk * math.sqrt(ts), cfg.mu_walk * math.sqrt(ts), 1e-5 * math.sqrt(ts)]) ** 2
+        self._Q = np.diag(q)
+        self._robust = cfg.formulation == EKF
+        # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
+        # whose likelihoods need the per-sample (white) noise
+        self._corr = max(cfg.slip_correlation_time / ts, 1.0) if self._robust else 1.0
+        self._capped = [int(i) for i in (Fs.B_R, Fs.B_AX, Fs.B_AY, Fs.D_DELTA, Fs.LN_CF, Fs.LN_CR, Fs.LN_MU, Fs.E_W)]
+        self._bounds = ((Fs.LN_CF, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
+                        (Fs.LN_CR, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
+                        (Fs.LN_MU, math.log(cfg.mu_min), math.log(cfg.mu_max)))
+        window = max(int(round(cfg.adapt_window / ts)), 1)
+        modes = [_Mode(KalmanFilter(x0, np.diag(p0)), 1.0, 0.0, window)]
+        if cfg.formulation == IMM:
+            modes.append(_Mode(KalmanFilter(x0, np.diag(p0)), cfg.slide_factor, (cfg.slide_accel * ts) ** 2,
+                               window))
+            self._prob = np.array([0.9, 0.1])
+            p = cfg.mode_switch
+            self._trans = np.array([[1.0 - p, p], [p, 1.0 - p]])
+        else:
+            self._prob = np.array([1.0])
+        self._modes = modes
+        self._x, self._P = x0.copy(), np.diag(p0)              # the combined estimate
+        self._heading_known = False
+        self._history: deque = deque(maxlen=int(math.ceil(cfg.max_delay / ts)) + 2)
+        self._latency = GpsLatency(ts, cfg.gps_latency, cfg.gps_latency_std, cfg.identify_delay,
+                                   min(cfg.max_delay, 0.5))
+        self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
+        self._gate = ValidityGate(cfg.valid_std_max, cfg.valid_hold)
+        self._r_prev = None
+        self._r_dot = self._accel = 0.0
+        self._ln_mu_floor = math.log(cfg.mu_min)
+        self._slip_prev = self._slip_rate = (0.0, 0.0)
+        self._x_rate = 0.0
+        self._started = False
+        self.utilisation = 0.0
+
+    # ---------------------------------------------------------------- one sample of the model
+    def _inputs(self, u: list, vw: float) -> tuple:
+        """The sample's model inputs from the sensors: ``(a_x, a_y, r_m, delta_m, v_wheel, F_yf, F_yr, F_zf, F_zr)``
+        (``a_y`` roll-compensated, the axle forces from the balances, the axle loads with the longitudinal load
+        transfer)."""
+        I, cfg, ts, v = self.In, self.config, self.Ts, self.vehicle
+        r_m, ax = u[I.YAW_RATE_M], u[I.AX_M]
+        ay = self._roll(u[I.AY_M])
+        if self._r_prev is not None:
+            self._r_dot = lowpass(self._r_dot, (r_m - self._r_prev) / ts, ts, cfg.yaw_acc_cutoff)
+        self._r_prev = r_m
+        b_ay = self._x[Fs.B_AY]
+        # friction floor: the measured horizontal acceleration (offsets removed, low-passed against noise)
+        a = math.hypot(ax - self._x[Fs.B_AX], ay - b_ay)
+        self._accel = lowpass(self._accel, a, ts, 1.0)
+        self._ln_mu_floor = math.log(max(cfg.mu_min, min(0.9 * self._accel / GRAVITY, cfg.mu_max)))
+        fyf, fyr = axle_forces(v.m, v.I_zz, v.l_f, v.l_r, ay - b_ay, self._r_dot)
+        shift = v.m * (ax - self._x[Fs.B_AX]) * v.h_cg / v.l            # longitudinal load transfer
+        fzf, fzr = max(self._fz_static[0] - shift, 0.2 * self._fz_static[0]), \
+            max(self._fz_static[1] + shift, 0.2 * self._fz_static[1])
+        return (ax, ay, r_m, u[I.DELTA_M], vw, fyf, fyr, fzf, fzr)
+
+    def _advance(self, mode: _Mode, inp: tuple, vx_ref: float) -> float:
+        """Time update and the wheel-speed and tire updates of one filter for one sample; returns the log-likelihood
+        of the tire pseudo-measurements."""
+        cfg, ts = self.config, self.Ts
+        ax, ay, r_m, delta, vw, fyf, fyr, fzf, fzr = inp
+        kf = mode.kf
+        xp, F = kinematic_step(kf.x, ax, ay, r_m, ts)
+        Q = self._Q
+        if mode.q_vy:
+            Q = Q.copy()
+            Q[Fs.VY, Fs.VY] += mode.q_vy
+        kf.predict(xp, F, Q)
+        # the undriven wheels: their slip grows with the longitudinal acceleration
+        h, row = wheel_model(kf.x)
+        if self._front_undriven:                    # front wheels turn with the steering
+            h, row = h * math.cos(delta), row * math.cos(delta)
+        sigma_w = 0.03 + 0.01 * abs(vw) + 0.05 * abs(ax)
+        kf.update_scalar(vw - h, row, sigma_w * sigma_w)
+        loglik = 0.0
+        if vx_ref > self.config.v_min:
+            x0 = kf.x
+            axles = axle_pseudo(x0, (r_m, delta, fyf, fyr, fzf, fzr), self._geometry, cfg.utilisation_max)
+            for (h, row, alpha, util), rate, monitor in zip(axles, self._slip_rate, mode.monitors):
+                h += float(row.dot(kf.x - x0))      # the residual after the other axle's update (linearised)
+                util = util if util < 1.0 else 1.0  # beyond saturation the clipped slip is a bound, still informative
+                s = (cfg.sigma_slip + cfg.slip_model_error * util * util * abs(alpha)
+                     + cfg.relaxation_length / vx_ref * abs(rate)) * vx_ref * mode.r_scale
+                rr = s * s * self._corr
+                prior = float(row.dot(kf.P.dot(row)))
+                monitor.add(h * h / (prior + rr))
+                if self._robust:                    # covariance matching (EKF only, see _init_filter)
+                    rr *= monitor.inflation() ** 2
+                var = prior + rr
+                if self._robust and h * h > cfg.pseudo_gate ** 2 * var:   # Huber: weighed as if at the gate
+                    rr += h * h / cfg.pseudo_gate ** 2 - var
+                    var = h * h / cfg.pseudo_gate ** 2
+                nis = kf.update_scalar(-h, row, rr)
+                loglik -= 0.5 * (nis + math.log(2.0 * math.pi * var))
+        self._bound(kf)
+        return loglik
+
+    def _bound(self, kf: KalmanFilter) -> None:
+        """Clamp the bounded states and cap the parameters' variances at their priors (module docstring)."""
+        x, P = kf.x, kf.P
+        for i, lo, hi in self._bounds:
+            if x[i] < lo:
+                x[i] = lo
+            elif x[i] > hi:
+                x[i] = hi
+        if x[Fs.LN_MU] < self._ln_mu_floor:        # the road carries at least what the car is measured to do
+            x[Fs.LN_MU] = self._ln_mu_floor
+        for i in self._capped:
+            cap = self._p_cap[i]
+            if P[i, i] > cap:
+                k = math.sqrt(cap / P[i, i])
+                P[i, :] *= k
+                P[:, i] *= k
+
+    def _sample_all(self, inp: tuple, vx_ref: float) -> None:
+        """One sample of every filter and, for the IMM, the mixing before and the mode probabilities after."""
+        modes = self._modes
+        if len(modes) == 1:
+            self._advance(modes[0], inp, vx_ref)
+            return
+        # IMM mixing (interaction) with the mode probabilities of the last sample
+        trans, prob = self._trans, self._prob
+        c = trans.T.dot(prob)                            # predicted mode probabilities
+        w = trans * prob[:, None] / c[None, :]           # w[i, j]: weight of filter i in the mixed prior of j
+        xs = [m.kf.x for m in modes]
+        Ps = [m.kf.P for m in modes]
+        mixed = []
+        for j in range(len(modes)):
+            x0 = w[0, j] * xs[0] + w[1, j] * xs[1]
+            P0 = np.zeros_like(Ps[0])
+            for i in range(len(modes)):
+                d = xs[i] - x0
+                P0 += w[i, j] * (Ps[i] + np.outer(d, d))
+            mixed.append((x0, P0))
+        for m, (x0, P0) in zip(modes, mixed):
+            m.kf.x, m.kf.P = x0, P0
+        logs = np.array([self._advance(m, inp, vx_ref) for m in modes])
+        like = np.exp(logs - logs.max()) * c
+        self._prob = np.maximum(like / like.sum(), 1e-6)
+        self._prob /= self._prob.sum()
+
+    def _combine(self) -> None:
+        """The combined estimate ``self._x``, ``self._P`` (the IMM's moment-matched mixture)."""
+        modes = self._modes
+        if len(modes) == 1:
+            self._x, self._P = modes[0].kf.x, modes[0].kf.P
+            return
+        p = self._prob
+        x = p[0] * modes[0].kf.x + p[1] * modes[1].kf.x
+        P = np.zeros_like(modes[0].kf.P)
+        for pi, m in zip(p, modes):
+            d = m.kf.x - x
+            P += pi * (m.kf.P + np.outer(d, d))
+        self._x, self._P = x, P
+
+    # ---------------------------------------------------------------- GNSS
+    def _gnss_update(self, ve: float, vn: float, accel: float) -> float:
+        """Apply a fix to every filter at its current sample; returns the (probability-weighted) NIS."""
+        cfg = self.config
+        noise = cfg.sigma_gnss ** 2 + (accel * self._latency.std) ** 2
+        R = np.eye(2) * noise
+        z = np.array([ve, vn])
+        nis_sum, logs = 0.0, []
+        for m in self._modes:
+            h, H = gnss_model(m.kf.x)
+            S = H.dot(m.kf.P).dot(H.T) + R
+            nis = m.kf.update(z - h, H, R)
+            self._bound(m.kf)
+            nis_sum += nis
+            logs.append(-0.5 * (nis + math.log(max(np.linalg.det(S), 1e-300))))
+        if len(self._modes) > 1:
+            logs = np.array(logs)
+            like = np.exp(logs - logs.max()) * self._prob
+            self._prob = np.maximum(like / like.sum(), 1e-6)
+            self._prob /= self._prob.sum()
+        return nis_sum / len(self._modes)
+
+    def _snapshot(self) -> list:
+        return [(m.kf.x.copy(), m.kf.P.copy()) for m in self._modes] + [self._prob.copy()]
+
+    def _restore(self, snap: list) -> None:
+        for m, (x, P) in zip(self._modes, snap):
+            m.kf.x, m.kf.P = x.copy(), P.copy()
+        self._prob = snap[-1].copy()
+
+    def _apply_fix(self, ve: float, vn: float, accel: float) -> float:
+        """A fix taken ``delay`` ago: applied at its own sample and re-propagated to now (measurement shifting)."""
+        hist = self._history
+        back = self._latency.lag(self.Ts)
+        if back <= 0 or back >= len(hist):
+            nis = self._gnss_update(ve, vn, accel)
+            hist[-1][2] = self._snapshot()
+            return nis
+        s = len(hist) - 1 - back
+        self._restore(hist[s][2])
+        nis = self._gnss_update(ve, vn, accel)
+        hist[s][2] = self._snapshot()
+        for j in range(s + 1, len(hist)):
+            inp, vx_ref, _ = hist[j]
+            self._sample_all(inp, vx_ref)
+            hist[j][2] = self._snapshot()
+        return nis
+
+    def _init_heading(self, ve: float, vn: float) -> None:
+        """The heading from a fix's course minus the current sideslip; its cross-covariances dropped."""
+        course = math.atan2(vn, ve)
+        for m in self._modes:
+            x, P = m.kf.x, m.kf.P
+            beta = math.atan2(x[Fs.VY], max(x[Fs.VX], 0.1))
+            # the course of the fix's time: the heading has turned by the yaw rate times the delay since
+            x[Fs.PSI] = math.remainder(course - beta + self._x_rate * self._latency.value, 2.0 * math.pi)
+            P[Fs.PSI, :] = 0.0
+            P[:, Fs.PSI] = 0.0
+            P[Fs.PSI, Fs.PSI] = 0.05 ** 2 + P[Fs.VY, Fs.VY] / max(x[Fs.VX] ** 2, 1.0)
+        self._heading_known = True
+
+    # ---------------------------------------------------------------- the sample
+    def _sample(self, u):
+        I, cfg, ts = self.In, self.config, self.Ts
+        vw = self.speed(u)
+        if not self._started:                          # start at the wheels' speed, straight ahead
+            if vw < 0.5 * cfg.v_min:
+                self.vx, self.yaw_rate, self.valid = vw, u[I.YAW_RATE_M], False
+                return
+            for m in self._modes:
+                m.kf.x[Fs.VX] = vw
+                m.kf.P[Fs.VX, Fs.VX] = 0.1 ** 2
+                m.kf.P[Fs.VY, Fs.VY] = (0.05 * vw) ** 2
+            self._started = True
+        inp = self._inputs(u, vw)
+        vx_ref = float(self._x[Fs.VX])
+        front, rear = axle_pseudo(self._x, (inp[2], inp[3], *inp[5:]), self._geometry, cfg.utilisation_max)
+        prev_f, prev_r = self._slip_prev
+        self._slip_rate = ((front[2] - prev_f) / ts, (rear[2] - prev_r) / ts)
+        self._slip_prev = (front[2], rear[2])
+        self.utilisation = max(front[3], rear[3])
+        self._sample_all(inp, vx_ref)
+        self._history.append([inp, vx_ref, self._snapshot()])
+        self._combine()
+        x = self._x
+        r = inp[2] - x[Fs.B_R]
+        self._x_rate = r
+        self._latency.push(r, self.beta)
+        gnss = cfg.use_gnss and u[I.GPS_VALID] != 0.0
+        fresh = gnss and u[I.GPS_FRESH] != 0.0
+        if fresh:
+            ve, vn = u[I.GPS_VE], u[I.GPS_VN]
+            speed = math.hypot(ve, vn)
+            if speed > cfg.course_speed:
+                self._latency.add_fix(math.atan2(vn, ve), r)
+            if not self._heading_known or self._P[Fs.PSI, Fs.PSI] > cfg.heading_reset ** 2:
+                if speed > cfg.course_speed:
+                    self._init_heading(ve, vn)
+                    self._history.clear()
+                    self._history.append([inp, vx_ref, self._snapshot()])
+            else:
+                self._gps_nis.add(self._apply_fix(ve, vn, math.hypot(inp[0], inp[1])), 2)
+            self._combine()
+            x = self._x
+        x[Fs.PSI] = math.remainder(x[Fs.PSI], 2.0 * math.pi)
+        for m in self._modes:
+            m.kf.x[Fs.PSI] = math.remainder(m.kf.x[Fs.PSI], 2.0 * math.pi)
+        P = self._P
+        vx, vy = float(x[Fs.VX]), float(x[Fs.VY])
+        self.vx, self.vy, self.yaw_rate = vx, vy, float(inp[2] - x[Fs.B_R])
+        self.beta = math.atan2(vy, vx) if vx > 0.1 else 0.0
+        std = beta_std(vx, vy, P[Fs.VX, Fs.VX], P[Fs.VY, Fs.VY], P[Fs.VX, Fs.VY])
+        if gnss and self._heading_known:
+            std *= self._gps_nis.inflation()
+        self.beta_std = std
+        self.valid = (vx > cfg.v_min and vw > cfg.v_min and (self._heading_known or not gnss)
+                      and (not gnss or self._gps_nis.consistent))
+
+    def _extras(self) -> tuple:
+        x, g = self._x, self._geometry
+        mu = math.exp(x[Fs.LN_MU])
+        c_f = axle_stiffness(g[2], g[4], g[6], mu)[0] * math.exp(x[Fs.LN_CF])
+        c_r = axle_stiffness(g[3], g[5], g[6], mu)[0] * math.exp(x[Fs.LN_CR])
+        return (math.remainder(float(x[Fs.PSI]), 2.0 * math.pi), float(x[Fs.B_R]), float(x[Fs.B_AX]),
+                float(x[Fs.B_AY]), float(x[Fs.D_DELTA]), c_f, c_r, mu, min(self.utilisation, 1.0),
+                self._latency.value, float(self._prob[1]) if len(self._prob) > 1 else 0.0)
+
+    def _pack(self) -> tuple:
+        return self._gate(self, super()._pack())
+
+    def kalman_filters(self) -> list:
+        return [m.kf for m in self._modes]

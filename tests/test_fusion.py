@@ -1,0 +1,156 @@
+"""SideslipFusion: observability of its offset states, consistency, GNSS outage and return, the in-vehicle mode,
+the benchmark rows."""
+import math
+
+import numpy as np
+import pytest
+
+from sideslip.bicycle import axle_forces
+from sideslip.estimators import SideslipFusionConfig
+from sideslip.estimators.fusion import Fs, axle_pseudo, fiala_slip, gnss_model, kinematic_step, wheel_model
+from sideslip.recording import replay
+from sideslip.studies import benchmark as B
+from sideslip.vehicles import load_vehicle
+
+DEG = math.pi / 180.0
+
+
+def _observability_rank(gnss: bool, turning: bool) -> tuple[int, np.ndarray]:
+    """Rank of the linearised model's observability matrix over 20 s of a constructed drive (every sample's
+    measurement rows times the transition from the start), and its smallest right singular vector."""
+    v = load_vehicle("park2018_sonata")
+    ts, n = 0.01, 2000
+    geometry = (v.l_f, v.l_r, v.C_f_nominal, v.C_r_nominal, v.C_f_nominal_lo, v.C_r_nominal_lo, v.mu_lo)
+    x = np.zeros(len(Fs))
+    x[Fs.VX], x[Fs.B_R], x[Fs.B_AX], x[Fs.B_AY], x[Fs.D_DELTA] = 12.0, 0.005, 0.1, -0.1, 0.002
+    phi = np.eye(len(Fs))
+    rows = []
+    r_prev = 0.0
+    fz = (v.m * 9.81 * v.l_r / v.l, v.m * 9.81 * v.l_f / v.l)
+    for k in range(n):
+        t = k * ts
+        r = 0.3 * math.sin(0.6 * t) if turning else 0.0
+        ax = 0.8 * math.sin(0.3 * t) if turning else 0.0
+        ay = x[Fs.VX] * r
+        fyf, fyr = axle_forces(v.m, v.I_zz, v.l_f, v.l_r, ay, (r - r_prev) / ts)
+        r_prev = r
+        delta = v.l * r / x[Fs.VX] + fyf / v.C_f_nominal - fyr / v.C_r_nominal
+        for h, row, _, _ in axle_pseudo(x, (r + x[Fs.B_R], delta, fyf, fyr, *fz), geometry, 0.95):
+            rows.append(row.dot(phi))
+        rows.append(wheel_model(x)[1].dot(phi))
+        if gnss and k % 10 == 0:
+            rows.extend(gnss_model(x)[1].dot(phi))
+        x, F = kinematic_step(x, ax + x[Fs.B_AX], ay + x[Fs.B_AY], r + x[Fs.B_R], ts)
+        phi = F.dot(phi)
+    O = np.array(rows)
+    norms = np.linalg.norm(O, axis=0)              # column scaling: states of very different units
+    O /= np.where(norms > 0.0, norms, 1.0)
+    s, vt = np.linalg.svd(O, full_matrices=False)[1:]
+    return int(np.sum(s > 1e-7 * s[0])), vt[-1]
+
+
+def test_offset_states_are_observable_with_gnss_on_a_turning_drive():
+    rank, _ = _observability_rank(gnss=True, turning=True)
+    assert rank == len(Fs)
+
+
+def test_without_gnss_only_the_heading_is_unobservable():
+    rank, null = _observability_rank(gnss=False, turning=True)
+    assert rank == len(Fs) - 1
+    assert abs(null[Fs.PSI]) > 0.999               # the one direction no in-vehicle sensor sees
+
+
+def test_driving_straight_at_constant_speed_leaves_the_tire_parameters_unobservable():
+    rank, _ = _observability_rank(gnss=True, turning=False)
+    assert rank <= len(Fs) - 3                    # no lateral force: neither stiffness, nor the friction
+
+
+def test_fiala_slip_is_linear_for_small_forces_and_grows_towards_saturation():
+    c, fmax = 80000.0, 8000.0
+    alpha, d_c, d_mu, u = fiala_slip(100.0, c, fmax, 0.95)
+    assert alpha == pytest.approx(100.0 / c, rel=1e-2) and d_c == -alpha and u == pytest.approx(100.0 / fmax)
+    a_half = fiala_slip(0.5 * fmax, c, fmax, 0.95)[0]
+    assert a_half > 0.5 * fmax / c                 # softer than linear
+    eps = 1e-6                                     # d alpha / d ln F_max against a difference quotient
+    num = (fiala_slip(-4000.0, c, fmax * math.exp(eps), 0.95)[0] - fiala_slip(-4000.0, c, fmax, 0.95)[0]) / eps
+    assert fiala_slip(-4000.0, c, fmax, 0.95)[2] == pytest.approx(num, rel=1e-4)
+
+
+def test_a_bad_friction_range_is_rejected_with_its_names():
+    with pytest.raises(ValueError, match="mu_min"):
+        SideslipFusionConfig(mu_min=0.9, mu_max=0.8)
+
+
+@pytest.fixture(scope="module")
+def slalom():
+    """A training-set case (sensors+mismatch, seed 0) and its recording."""
+    case = B.Case("bench_train_slalom_asm", "sensors+mismatch", 0)
+    return B.setup(case), B.simulate(case)
+
+
+def _run(setup, rec, **params):
+    est = B.make_estimator(B.Row("f", "SideslipFusion", tuple(params.items())), setup)
+    return est, replay(est, rec)
+
+
+def test_reported_std_is_consistent_on_a_seeded_case(slalom):
+    setup, rec = slalom
+    _, res = _run(setup, rec)
+    m = B.row_metrics(rec, res["beta_hat"], res["beta_hat_std"], res["valid"])
+    assert m["rms"] < 0.1                         # deg: 0.03 measured
+    assert m["nees"] < 1.5 and m["coverage95"] > 0.95
+    assert m["valid"] > 0.9 and m["off_while_valid"] == 0.0
+
+
+def test_gnss_outage_is_bridged_by_the_tire_model_and_the_heading_recovers_at_its_return():
+    case = B.Case("bench_train_slalom_asm", "sensors+mismatch", 1)
+    s = B.setup(case)
+    s.sensors["gps_outages"] = "12-24"
+    rec = B.record(case.scenario, s.sensors, s.plant.get("tire_model", 0))
+    est, res = _run(s, rec)
+    t = rec.time
+    err = res["beta_hat"] - rec.reference["beta"]
+    heading = np.abs(np.remainder(res["yaw_hat"] - rec.reference["yaw"] + np.pi, 2 * np.pi) - np.pi)
+    rms = lambda e, a, b: float(np.sqrt(np.mean(e[(t > a) & (t < b)] ** 2)))      # noqa: E731
+    # the heading is seen by GNSS only: it drifts through the outage and is pulled back after it
+    assert rms(heading, 20, 24) > 3.0 * rms(heading, 8, 12)
+    assert rms(heading, 28, 30) < 0.5 * rms(heading, 20, 24)
+    # the sideslip rests on the tire model calibrated before: it stays within its reported std and valid
+    assert rms(err, 12, 24) < 0.1 * DEG and rms(err, 12, 24) < rms(res["beta_hat_std"], 12, 24)
+    assert res["valid"][(t > 12) & (t < 24)].all() and est.restarts == 0
+
+
+def test_in_vehicle_mode_by_parameter_equals_gps_valid_false(slalom):
+    setup, rec = slalom
+    _, by_param = _run(setup, rec, use_gnss=False)
+    signals = dict(rec.signals)
+    signals["gps_valid"] = np.zeros_like(rec.time)
+    no_fix = B.Recording(rec.time, signals, rec.reference, "no fix")
+    _, by_input = _run(setup, no_fix)
+    assert np.array_equal(by_param["beta_hat"], by_input["beta_hat"])
+    assert np.array_equal(by_param["valid"], by_input["valid"])
+    m = B.row_metrics(rec, by_param["beta_hat"], by_param["beta_hat_std"], by_param["valid"])
+    assert m["rms"] < 0.1 and m["valid"] > 0.9      # deg: 0.02 measured
+
+
+# the benchmark's test set under sensors+mismatch (seed 0): RMS [deg] pinned with a margin over the measured
+# (docs/estimator.md: 0.023, 0.050, 0.039, 0.054, 0.141, 0.472, 0.676)
+PINNED = {("bench_dlc_asm_80kmh", "SideslipFusion/EKF"): 0.05,
+          ("bench_slalom_suv_mu05", "SideslipFusion/EKF"): 0.10,
+          ("bench_slalom_suv_mu05", "SideslipFusion/in-vehicle"): 0.08,
+          ("bench_bit_suv_mu05", "SideslipFusion/EKF"): 0.10,
+          ("bench_bit_suv_mu05", "SideslipFusion/in-vehicle"): 0.25,
+          ("bench_jturn_coms_ice", "SideslipFusion/EKF"): 0.7,
+          ("bench_jturn_coms_ice", "SideslipFusion/in-vehicle"): 1.0}
+
+
+@pytest.mark.parametrize("scenario", sorted({k[0] for k in PINNED}))
+def test_benchmark_rows_are_pinned(scenario):
+    rows = tuple(r for r in B.ROWS if (scenario, r.label) in PINNED or r.estimator is None)
+    res = B.run_case(B.Case(scenario, "sensors+mismatch", 0), rows)
+    for (sc, label), limit in PINNED.items():
+        if sc == scenario:
+            m = res["rows"][label]
+            assert m["rms"] < limit, (label, m["rms"])
+            assert m["rms"] < res["rows"]["predict-zero"]["rms"]
+            assert m["off_while_valid"] <= 0.5 and m["restarts"] == 0
