@@ -292,12 +292,11 @@ def test_bad_controller_parameters_name_the_parameter():
         build(StabilityControllerConfig, {"estimator": "Kalman"})
 
 
-def test_stability_controller_equals_estimator_then_controller():
-    res = run_library("park2018_case2", ["Park2018Observer"], duration=8.0)
-    combo = StabilityController(StabilityControllerConfig(vehicle="park2018_sonata", estimator="Park2018Observer",
-                                                          Ts=0.01))
-    est = ESTIMATORS["Park2018Observer"](build(ESTIMATORS["Park2018Observer"].config_class,
-                                               {"vehicle": "park2018_sonata", "Ts": 0.01}))
+@pytest.mark.parametrize("name", ["Park2018Observer", "SideslipFusion"])
+def test_stability_controller_equals_estimator_then_controller(name):
+    res = run_library("park2018_case2", [], duration=8.0)
+    combo = StabilityController(StabilityControllerConfig(vehicle="park2018_sonata", estimator=name, Ts=0.01))
+    est = ESTIMATORS[name](build(ESTIMATORS[name].config_class, {"vehicle": "park2018_sonata", "Ts": 0.01}))
     ctl = LqrDycController(LqrDycConfig(vehicle="park2018_sonata", yaw_rate_source=1))
     sig = lambda n: res[f"sensors.{n}"] if f"sensors.{n}" in res else res[f"driver.{n}"]   # noqa: E731
     for k in range(1, len(res["time"])):
@@ -353,6 +352,19 @@ def test_stability_controller_fmu_equals_library(harness):
     fmu.init(**cfg)
     for k in range(1, len(res["time"])):
         u = {n: res[f"sensors.{n}"][k] if n != "dyc_enable" else k > 1000 for n in lib.input_names}
+        lib.step(1e-3, *u.values())
+        fmu.step(**u)
+        assert fmu.outputs() == list(lib.outputs()), k
+    assert lib.outputs()[lib.output_names.index("valid")] == 1.0
+
+
+def test_stability_controller_fmu_selects_the_fusion_estimator_by_number(harness):
+    res = run_library("park2018_case2", [], duration=3.0)
+    lib = StabilityController(StabilityControllerConfig(vehicle="park2018_sonata", estimator="SideslipFusion"))
+    fmu = harness("StabilityController")
+    fmu.init(vehicle="park2018_sonata", estimator_index=8)     # a host without String parameters
+    for k in range(1, len(res["time"])):
+        u = {n: res[f"sensors.{n}"][k] if n != "dyc_enable" else True for n in lib.input_names}
         lib.step(1e-3, *u.values())
         fmu.step(**u)
         assert fmu.outputs() == list(lib.outputs()), k

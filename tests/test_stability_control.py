@@ -14,8 +14,9 @@ from sideslip.studies.control_eval import (FMVSS_FAMILY, SOURCES, ControlCase, c
 
 ROWS = {s.label: s for s in SOURCES}
 CHOSEN = ("none", "LQR / Yoon2014DualKF", "LQR / Kim2016SteeringEKF", "ESC / truth",
-          "StabilityController (Yoon2014DualKF)")
-"""No control, the LQR on the best two hardened estimators, the baseline ESC, the one-block FMU."""
+          "StabilityController (Yoon2014DualKF)", "LQR / SideslipFusion")
+"""No control, the LQR on the best two hardened estimators, the baseline ESC, the one-block FMU, the LQR on the
+project's own estimator."""
 
 
 @pytest.fixture(scope="module")

@@ -49,8 +49,9 @@ grows honestly; at the return of GNSS after the heading has become uncertain (``
 the heading is re-initialised from the fix's course.
 
 Bounded states: the stiffness scales ``s`` within ``[stiffness_min, stiffness_max]``, the friction
-within ``[mu_min, mu_max]`` (clamped after each update; their variance is capped at the prior's so
-that an unobservable parameter cannot grow without bound).  The gyro offset is not bounded (a
+within ``[mu_min, mu_max]`` (clamped after each update); a parameter (offsets, tire parameters, rolling
+radius) whose variance has reached its prior's gets no process noise, so that one nothing shows cannot
+grow without bound.  The gyro offset is not bounded (a
 clamped Kalman state leaves its covariance claiming a freedom it does not have).
 
 Reported std and validity: ``beta_hat_std`` is the first-order std of ``atan2(v_y, v_x)`` from the
@@ -92,6 +93,9 @@ class Fs(IntEnum):
     VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W = range(11)
 
 
+_EYE = np.eye(len(Fs))
+
+
 # ------------------------------------------------------------------------------ the models
 def kinematic_step(x: np.ndarray, ax: float, ay: float, r_m: float, ts: float) -> tuple[np.ndarray, np.ndarray]:
     """One Euler step of the kinematic model (module docstring) and its Jacobian.
@@ -113,7 +117,7 @@ def kinematic_step(x: np.ndarray, ax: float, ay: float, r_m: float, ts: float) -
     xp[Fs.VX] = vx + ts * (ax - b_ax + r * vy)
     xp[Fs.VY] = vy + ts * (ay - b_ay - r * vx)
     xp[Fs.PSI] = psi + ts * r
-    F = np.eye(len(x))
+    F = _EYE.copy()                                 # np.eye costs three times a copy
     F[Fs.VX, Fs.VY], F[Fs.VX, Fs.B_R], F[Fs.VX, Fs.B_AX] = ts * r, -ts * vy, -ts
     F[Fs.VY, Fs.VX], F[Fs.VY, Fs.B_R], F[Fs.VY, Fs.B_AY] = -ts * r, ts * vx, -ts
     F[Fs.PSI, Fs.B_R] = -ts
@@ -270,8 +274,8 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                                 "their innovations (covariance matching: a model that stops explaining the car is "
                                 "trusted less)", gt=0, le=60)
     pseudo_gate: float = param(3.0, "Dimensionless", "Normalised residual beyond which a tire pseudo-measurement "
-                               "is down-weighted (Huber) so that a transient the model cannot follow does not "
-                               "drag the state", gt=0, le=100)
+                               "or the wheel speed is down-weighted (Huber) so that a transient the model cannot "
+                               "follow, or a locking wheel, does not drag the state", gt=0, le=100)
     yaw_acc_cutoff: float = param(3.0, "Frequency", "Low-pass cut-off of the yaw acceleration in the axle forces",
                                   gt=0, le=50)
     # GNSS
@@ -339,12 +343,11 @@ class SideslipFusion(Estimator):
                       cfg.gyro_offset_walk * math.sqrt(ts), cfg.accel_offset_walk * math.sqrt(ts),
                       cfg.accel_offset_walk * math.sqrt(ts), 1e-6 * math.sqrt(ts), cfg.stiffness_walk * math.sqrt(ts),
                       cfg.stiffness_walk * math.sqrt(ts), cfg.mu_walk * math.sqrt(ts), 1e-5 * math.sqrt(ts)]) ** 2
-        self._Q = np.diag(q)
+        self._q = q
         self._robust = cfg.formulation == EKF
         # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
         # whose likelihoods need the per-sample (white) noise
         self._corr = max(cfg.slip_correlation_time / ts, 1.0) if self._robust else 1.0
-        self._capped = [int(i) for i in (Fs.B_R, Fs.B_AX, Fs.B_AY, Fs.D_DELTA, Fs.LN_CF, Fs.LN_CR, Fs.LN_MU, Fs.E_W)]
         self._bounds = ((Fs.LN_CF, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
                         (Fs.LN_CR, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
                         (Fs.LN_MU, math.log(cfg.mu_min), math.log(cfg.mu_max)))
@@ -403,28 +406,39 @@ class SideslipFusion(Estimator):
         ax, ay, r_m, delta, vw, fyf, fyr, fzf, fzr = inp
         kf = mode.kf
         xp, F = kinematic_step(kf.x, ax, ay, r_m, ts)
-        Q = self._Q
-        if mode.q_vy:
-            Q = Q.copy()
-            Q[Fs.VY, Fs.VY] += mode.q_vy
+        # a parameter whose variance has reached its prior's gets no more process noise (nothing shows it)
+        Q = np.diag(np.where(np.diagonal(kf.P) < self._p_cap, self._q, 0.0))
+        Q[Fs.VY, Fs.VY] += mode.q_vy
         kf.predict(xp, F, Q)
         # the undriven wheels: their slip grows with the longitudinal acceleration
         h, row = wheel_model(kf.x)
         if self._front_undriven:                    # front wheels turn with the steering
             h, row = h * math.cos(delta), row * math.cos(delta)
-        sigma_w = 0.03 + 0.01 * abs(vw) + 0.05 * abs(ax)
-        kf.update_scalar(vw - h, row, sigma_w * sigma_w)
+        # braked or driven wheels slip by up to the friction utilisation of the longitudinal acceleration squared
+        grip = abs(ax) / (math.exp(kf.x[Fs.LN_MU]) * GRAVITY)
+        sigma_w = 0.03 + 0.01 * abs(vw) + 0.05 * abs(ax) + 0.2 * abs(vw) * grip * grip
+        rw = sigma_w * sigma_w
+        Ph = kf.P.dot(row)
+        var = float(row.dot(Ph)) + rw
+        y = vw - h
+        if y * y > cfg.pseudo_gate ** 2 * var:     # Huber: a locking or spinning wheel is weighed as if at the gate
+            rw += y * y / cfg.pseudo_gate ** 2 - var
+        kf.update_scalar(y, row, rw, Ph)
         loglik = 0.0
         if vx_ref > self.config.v_min:
             x0 = kf.x
             axles = axle_pseudo(x0, (r_m, delta, fyf, fyr, fzf, fzr), self._geometry, cfg.utilisation_max)
             for (h, row, alpha, util), rate, monitor in zip(axles, self._slip_rate, mode.monitors):
                 h += float(row.dot(kf.x - x0))      # the residual after the other axle's update (linearised)
-                util = util if util < 1.0 else 1.0  # beyond saturation the clipped slip is a bound, still informative
+                if util >= cfg.utilisation_max and h * alpha <= 0.0:
+                    continue                        # saturated: the clipped slip is a lower bound, and the state's
+                    #                                 slip exceeds it the same way (a slide): nothing to correct
+                util = util if util < 1.0 else 1.0
                 s = (cfg.sigma_slip + cfg.slip_model_error * util * util * abs(alpha)
                      + cfg.relaxation_length / vx_ref * abs(rate)) * vx_ref * mode.r_scale
                 rr = s * s * self._corr
-                prior = float(row.dot(kf.P.dot(row)))
+                Ph = kf.P.dot(row)
+                prior = float(row.dot(Ph))
                 monitor.add(h * h / (prior + rr))
                 if self._robust:                    # covariance matching (EKF only, see _init_filter)
                     rr *= monitor.inflation() ** 2
@@ -432,14 +446,14 @@ class SideslipFusion(Estimator):
                 if self._robust and h * h > cfg.pseudo_gate ** 2 * var:   # Huber: weighed as if at the gate
                     rr += h * h / cfg.pseudo_gate ** 2 - var
                     var = h * h / cfg.pseudo_gate ** 2
-                nis = kf.update_scalar(-h, row, rr)
+                nis = kf.update_scalar(-h, row, rr, Ph)
                 loglik -= 0.5 * (nis + math.log(2.0 * math.pi * var))
         self._bound(kf)
         return loglik
 
     def _bound(self, kf: KalmanFilter) -> None:
-        """Clamp the bounded states and cap the parameters' variances at their priors (module docstring)."""
-        x, P = kf.x, kf.P
+        """Clamp the bounded states (module docstring)."""
+        x = kf.x
         for i, lo, hi in self._bounds:
             if x[i] < lo:
                 x[i] = lo
@@ -447,12 +461,7 @@ class SideslipFusion(Estimator):
                 x[i] = hi
         if x[Fs.LN_MU] < self._ln_mu_floor:        # the road carries at least what the car is measured to do
             x[Fs.LN_MU] = self._ln_mu_floor
-        for i in self._capped:
-            cap = self._p_cap[i]
-            if P[i, i] > cap:
-                k = math.sqrt(cap / P[i, i])
-                P[i, :] *= k
-                P[:, i] *= k
+
 
     def _sample_all(self, inp: tuple, vx_ref: float) -> None:
         """One sample of every filter and, for the IMM, the mixing before and the mode probabilities after."""

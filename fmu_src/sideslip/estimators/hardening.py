@@ -55,8 +55,8 @@ def valid_hold_param(default: float = 1.0, prefix: str = ""):
 
 def nis_limit_param(default: float = 25.0, prefix: str = ""):
     """The ``nis_limit`` parameter (:class:`InnovationMonitor`); ``prefix`` starts its description."""
-    return param(default, "Dimensionless", prefix + "innovation consistency (NIS per degree of freedom over the method's "
-                 "window) above which the estimate is not valid", gt=1, le=1e6)
+    return param(default, "Dimensionless", prefix + "innovation consistency (NIS per degree of freedom over the "
+                 "method's window) above which the estimate is not valid", gt=1, le=1e6)
 
 
 @dataclass(frozen=True)

@@ -94,7 +94,7 @@ class KalmanFilter:
         self.P = 0.5 * (P + P.T)
         return float(y.dot(X[:, n]))
 
-    def update_scalar(self, innovation: float, h, r: float) -> float:
+    def update_scalar(self, innovation: float, h, r: float, Ph=None) -> float:
         """Update with one scalar measurement (row ``h``, variance ``r``); no matrix inverse.
 
         Equal to :meth:`update` with a 1x1 ``S``; several independent scalar measurements may
@@ -103,6 +103,9 @@ class KalmanFilter:
         ``P - (P h)(P h)^T / s``, done in one BLAS ``dger`` call; it stays positive definite
         because ``s = h^T P h + r > h^T P h``.
 
+        ``Ph``, ``P h`` of the current ``P``, may be passed by a caller that needed it before (its
+        innovation's variance ``h^T P h``); it is computed otherwise.
+
         Returns
         -------
         float
@@ -110,7 +113,8 @@ class KalmanFilter:
         """
         h = np.asarray(h, dtype=float)
         P = self.P
-        Ph = P.dot(h)
+        if Ph is None:
+            Ph = P.dot(h)
         s = float(h.dot(Ph)) + r
         innovation = float(innovation)
         self.x = self.x + Ph * (innovation / s)

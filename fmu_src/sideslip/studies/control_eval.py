@@ -239,6 +239,13 @@ _FIELDS = ("plant.yaw_rate", "plant.beta", "plant.vx", "plant.X", "plant.Y", "pl
            "driver.delta_f", "driver.delta_sw")
 
 
+def _hardened(estimator: str) -> dict:
+    """``{"profile": 1}`` for an estimator with a hardened profile (the papers' methods), else nothing."""
+    from ..estimators import ESTIMATORS
+    names = {f.name for f, _ in declared_fields(ESTIMATORS[estimator].config_class)}
+    return {"profile": 1} if "profile" in names else {}
+
+
 def _controller_values(case: ControlCase, s, sc) -> dict:
     """Parameters of the case's controller (without its vehicle)."""
     src = case.source
@@ -264,7 +271,7 @@ def _library(case: ControlCase, s, duration: float) -> dict:
         ctl = cls(build(cls.config_class, _controller_values(case, s, sc)), vehicle=s.estimator_vehicle)
         wiring = {"beta_hat": "plant.beta", "vx_hat": "plant.vx", "yaw_rate_hat": "plant.yaw_rate"}
         if src.estimator and src.controller != "StabilityController":
-            est = make_estimator(Row(src.estimator, src.estimator, (("profile", 1),)), s)
+            est = make_estimator(Row(src.estimator, src.estimator, tuple(_hardened(src.estimator).items())), s)
             chain.append(("est", est, {"Mz_cmd": "controller.Mz_cmd"}))
             wiring = {"beta_hat": "est.beta_hat", "vx_hat": "est.vx_hat", "yaw_rate_hat": "est.yaw_rate_hat",
                       "beta_valid": "est.valid"}
@@ -292,7 +299,8 @@ def _fmpy(case: ControlCase, s, duration: float, fmu_dir) -> dict:
         params["controller.vehicle_overrides"] = overrides
         if src.estimator and src.controller != "StabilityController":
             estimators = [src.estimator]
-            params.update({f"{src.estimator}.profile": 1, f"{src.estimator}.vehicle_overrides": overrides})
+            params.update({f"{src.estimator}.{k}": v for k, v in _hardened(src.estimator).items()})
+            params[f"{src.estimator}.vehicle_overrides"] = overrides
     fields = _FIELDS + tuple(f"controller.{n}" for n in (fmu_spec(src.controller).outputs if src.controller else ()))
     source = estimators[0] if estimators else ("truth" if src.controller else None)
     run = run_scenario(sc, estimators, src.controller, duration=duration, fmu_dir=fmu_dir, params=params,
