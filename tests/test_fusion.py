@@ -133,12 +133,9 @@ def test_in_vehicle_mode_by_parameter_equals_gps_valid_false(slalom):
     assert m["rms"] < 0.1 and m["valid"] > 0.9      # deg: 0.02 measured
 
 
-# the benchmark's test set under sensors+mismatch (seed 0): RMS [deg] pinned with a margin over the measured
-# (docs/estimator.md: 0.023, 0.050, 0.039, 0.054, 0.141, 0.472, 0.676)
-PINNED = {("bench_dlc_asm_80kmh", "SideslipFusion/EKF"): 0.05,
-          ("bench_slalom_suv_mu05", "SideslipFusion/EKF"): 0.10,
-          ("bench_slalom_suv_mu05", "SideslipFusion/in-vehicle"): 0.08,
-          ("bench_bit_suv_mu05", "SideslipFusion/EKF"): 0.10,
+# the benchmark's test set under sensors+mismatch (seed 0; its two shortest scenarios, both on low friction):
+# RMS [deg] pinned with a margin over the measured (0.054, 0.141, 0.472, 0.676)
+PINNED = {("bench_bit_suv_mu05", "SideslipFusion/EKF"): 0.10,
           ("bench_bit_suv_mu05", "SideslipFusion/in-vehicle"): 0.25,
           ("bench_jturn_coms_ice", "SideslipFusion/EKF"): 0.7,
           ("bench_jturn_coms_ice", "SideslipFusion/in-vehicle"): 1.0}
