@@ -19,8 +19,8 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   offsets, the rolling radius and the tire parameters observable whenever the car accelerates or
   turns.
 * **Wheel speeds** (:func:`wheel_model`): the undriven axle's mean speed is ``(1 + e_w) v_x``
-  (``e_w`` the rolling-radius error, a state); its noise grows with the longitudinal acceleration
-  (a braked wheel slips).
+  (``e_w`` the rolling-radius error, a state); its noise grows with the longitudinal friction
+  utilisation squared and a Huber gate caps its weight (a braked wheel slips, a locked one slides).
 * **Tire pseudo-measurements** (:func:`axle_pseudo`), one per axle, every sample: the axle's lateral
   force from the force and moment balances (:func:`~sideslip.bicycle.axle_forces`, from the measured
   lateral and yaw accelerations) gives its slip angle through a brush (Fiala) tire,
@@ -32,7 +32,9 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   ``v_y - l_r r + v_x alpha_r = 0`` and ``v_y + l_f r - v_x (delta_m - d_delta - alpha_f) = 0``
   (``d_delta`` the steering offset, a state).  With GNSS they calibrate the tire model; without
   it they are what holds the lateral velocity.  Their noise is the tire's transient (relaxation)
-  and the brush model's error, which grows with the friction utilisation ``|F_y| / (mu F_z)``.
+  and the brush model's error, which grows with the friction utilisation ``|F_y| / (mu F_z)``,
+  inflated by the error's correlation time, by covariance matching and by a Huber gate; beyond
+  ``utilisation_max`` the slip is a lower bound (a state sliding further is not corrected).
 
 State: :class:`Fs` (11).  Two formulations (``formulation``), compared on the benchmark
 (``docs/estimator.md``):
