@@ -11,9 +11,12 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   model, :class:`~sideslip.estimators.roll.RollCompensator`), and the heading ``dpsi/dt = r``.
   Exact for any tire and friction; it drifts with the offsets, which are states.
 * **GNSS velocity** (:func:`gnss_model`): ``v_e = v_x cos psi - v_y sin psi``,
-  ``v_n = v_x sin psi + v_y cos psi`` at the fix's own time: the state, covariance and inputs of the
-  last ``max_delay`` seconds are kept and a delayed fix is applied at its sample and re-propagated
-  to now (measurement shifting, as in Yoon 2014 Fig. 7).  The delay is identified while turning
+  ``v_n = v_x sin psi + v_y cos psi`` at the fix's own time: the filter's samples of the last
+  ``max_delay`` seconds are kept, the fix's innovation and gain are those of its own sample and
+  the correction is carried to now through the filter's steps since (Larsen 1998,
+  :class:`~sideslip.estimators.kalman.DelayedMeasurements`; re-running the filter from the fix's
+  sample, as Yoon 2014 Fig. 7 does, doubled the filter's cost for the same accuracy on the
+  training set, ``docs/estimator.md``).  The delay is identified while turning
   (:class:`~sideslip.estimators.delay.GpsLatency`); its uncertainty enters the fix's noise as the
   acceleration times the delay's std.  GNSS makes the heading, the gyro offset, the accelerometer
   offsets, the rolling radius and the tire parameters observable whenever the car accelerates or
@@ -80,7 +83,7 @@ from .base import Estimator, EstimatorConfig, beta_std, input_enum, lowpass
 from .delay import GpsLatency
 from .hardening import (GpsLatencyConfig, InnovationMonitor, ValidityGate, nis_limit_param, valid_hold_param,
                         valid_std_max_param)
-from .kalman import KalmanFilter
+from .kalman import DelayedMeasurements, KalmanFilter
 from .roll import RollCompensator
 
 __all__ = ["SideslipFusionConfig", "SideslipFusion", "Fs", "EKF", "IMM", "kinematic_step", "gnss_model",
@@ -96,6 +99,8 @@ class Fs(IntEnum):
 
 
 _EYE = np.eye(len(Fs))
+# plain-int copies of the indices the per-sample functions use: indexing with an IntEnum member costs four times more
+_VX, _VY, _PSI, _B_R, _B_AX, _B_AY, _D_DELTA, _LN_CF, _LN_CR, _LN_MU, _E_W = (int(s) for s in Fs)
 
 
 # ------------------------------------------------------------------------------ the models
@@ -116,31 +121,32 @@ def kinematic_step(x: np.ndarray, ax: float, ay: float, r_m: float, ts: float) -
     vx, vy, psi, b_r, b_ax, b_ay = x[:6].tolist()
     r = r_m - b_r
     xp = x.copy()
-    xp[Fs.VX] = vx + ts * (ax - b_ax + r * vy)
-    xp[Fs.VY] = vy + ts * (ay - b_ay - r * vx)
-    xp[Fs.PSI] = psi + ts * r
+    xp[_VX] = vx + ts * (ax - b_ax + r * vy)
+    xp[_VY] = vy + ts * (ay - b_ay - r * vx)
+    xp[_PSI] = psi + ts * r
     F = _EYE.copy()                                 # np.eye costs three times a copy
-    F[Fs.VX, Fs.VY], F[Fs.VX, Fs.B_R], F[Fs.VX, Fs.B_AX] = ts * r, -ts * vy, -ts
-    F[Fs.VY, Fs.VX], F[Fs.VY, Fs.B_R], F[Fs.VY, Fs.B_AY] = -ts * r, ts * vx, -ts
-    F[Fs.PSI, Fs.B_R] = -ts
+    F[_VX, _VY], F[_VX, _B_R], F[_VX, _B_AX] = ts * r, -ts * vy, -ts
+    F[_VY, _VX], F[_VY, _B_R], F[_VY, _B_AY] = -ts * r, ts * vx, -ts
+    F[_PSI, _B_R] = -ts
     return xp, F
 
 
 def gnss_model(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The GNSS velocity ``(v_e, v_n)`` of the state and its Jacobian."""
-    vx, vy, psi = x[Fs.VX], x[Fs.VY], x[Fs.PSI]
+    vx, vy, psi = x[:3].tolist()
     c, s = math.cos(psi), math.sin(psi)
     H = np.zeros((2, len(x)))
-    H[0, Fs.VX], H[0, Fs.VY], H[0, Fs.PSI] = c, -s, -vx * s - vy * c
-    H[1, Fs.VX], H[1, Fs.VY], H[1, Fs.PSI] = s, c, vx * c - vy * s
+    H[0, _VX], H[0, _VY], H[0, _PSI] = c, -s, -vx * s - vy * c
+    H[1, _VX], H[1, _VY], H[1, _PSI] = s, c, vx * c - vy * s
     return np.array([vx * c - vy * s, vx * s + vy * c]), H
 
 
 def wheel_model(x: np.ndarray) -> tuple[float, np.ndarray]:
     """The undriven axle's mean wheel speed ``(1 + e_w) v_x`` [m/s] and its Jacobian row."""
+    vx, e_w = x.item(_VX), x.item(_E_W)
     h = np.zeros(len(x))
-    h[Fs.VX], h[Fs.E_W] = 1.0 + x[Fs.E_W], x[Fs.VX]
-    return (1.0 + x[Fs.E_W]) * x[Fs.VX], h
+    h[_VX], h[_E_W] = 1.0 + e_w, vx
+    return (1.0 + e_w) * vx, h
 
 
 def fiala_slip(force: float, stiffness: float, f_max: float, u_max: float) -> tuple[float, float, float]:
@@ -205,23 +211,23 @@ def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tup
     """
     r_m, delta, fyf, fyr, fzf, fzr = inp
     l_f, l_r, c_f, c_r, c_f_lo, c_r_lo, mu_lo = geometry
-    vx, vy, b_r, d_delta = x[Fs.VX], x[Fs.VY], x[Fs.B_R], x[Fs.D_DELTA]
-    mu = math.exp(x[Fs.LN_MU])
+    vx, vy, _, b_r, _, _, d_delta, ln_cf, ln_cr, ln_mu, _ = x.tolist()          # Fs order
+    mu = math.exp(ln_mu)
     r = r_m - b_r
     n = len(x)
     cf, kf = axle_stiffness(c_f, c_f_lo, mu_lo, mu)
     cr, kr = axle_stiffness(c_r, c_r_lo, mu_lo, mu)
-    a_f, da_cf, da_mf, u_f = fiala_slip(fyf, cf * math.exp(x[Fs.LN_CF]), mu * fzf, u_max)
-    a_r, da_cr, da_mr, u_r = fiala_slip(fyr, cr * math.exp(x[Fs.LN_CR]), mu * fzr, u_max)
+    a_f, da_cf, da_mf, u_f = fiala_slip(fyf, cf * math.exp(ln_cf), mu * fzf, u_max)
+    a_r, da_cr, da_mr, u_r = fiala_slip(fyr, cr * math.exp(ln_cr), mu * fzr, u_max)
     steer = delta - d_delta
     h_f = vy + l_f * r - vx * (steer - a_f)
     row_f = np.zeros(n)
-    row_f[Fs.VX], row_f[Fs.VY], row_f[Fs.B_R], row_f[Fs.D_DELTA] = a_f - steer, 1.0, -l_f, vx
-    row_f[Fs.LN_CF], row_f[Fs.LN_MU] = vx * da_cf, vx * (da_mf + kf * da_cf)
+    row_f[_VX], row_f[_VY], row_f[_B_R], row_f[_D_DELTA] = a_f - steer, 1.0, -l_f, vx
+    row_f[_LN_CF], row_f[_LN_MU] = vx * da_cf, vx * (da_mf + kf * da_cf)
     h_r = vy - l_r * r + vx * a_r
     row_r = np.zeros(n)
-    row_r[Fs.VX], row_r[Fs.VY], row_r[Fs.B_R] = a_r, 1.0, l_r
-    row_r[Fs.LN_CR], row_r[Fs.LN_MU] = vx * da_cr, vx * (da_mr + kr * da_cr)
+    row_r[_VX], row_r[_VY], row_r[_B_R] = a_r, 1.0, l_r
+    row_r[_LN_CR], row_r[_LN_MU] = vx * da_cr, vx * (da_mr + kr * da_cr)
     return (h_f, row_f, a_f, u_f), (h_r, row_r, a_r, u_r)
 
 
@@ -283,6 +289,10 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
     # GNSS
     sigma_gnss: float = param(0.1, "Velocity", "GNSS velocity noise per axis", gt=0, le=10)
     max_delay: float = param(0.5, "Time", "Largest GNSS delay handled (length of the history)", gt=0, le=2)
+    fix_extrapolation: bool = param(True, "Dimensionless", "Apply a delayed GNSS fix by carrying its correction "
+                                    "from its sample to now through the filter's steps (Larsen 1998, about half "
+                                    "the cost); false: re-run the filter from the fix's sample (measurement "
+                                    "shifting)")
     heading_reset: float = param(0.2, "Angle", "Heading std above which the heading is re-initialised from the "
                                  "course at the next fix", gt=0, le=3.2)
     course_speed: float = param(3.0, "Velocity", "Speed below which a fix does not initialise the heading",
@@ -309,11 +319,14 @@ class _Mode:
     """One extended Kalman filter on the model (module docstring), with its pseudo-measurement scale and extra
     lateral process noise (the IMM's modes; the EKF has one)."""
 
-    __slots__ = ("kf", "r_scale", "q_vy", "monitors")
+    __slots__ = ("kf", "r_scale", "q_vy", "monitors", "delayed", "slip", "utilisation")
 
-    def __init__(self, kf: KalmanFilter, r_scale: float, q_vy: float, window: int):
+    def __init__(self, kf: KalmanFilter, r_scale: float, q_vy: float, window: int, history: int):
         self.kf, self.r_scale, self.q_vy = kf, r_scale, q_vy
         self.monitors = (InnovationMonitor(window), InnovationMonitor(window))   # per axle: covariance matching
+        self.delayed = DelayedMeasurements(kf, history) if history else None    # fix extrapolation
+        self.slip = (0.0, 0.0)               # the axles' slip angles of the last sample [rad] (their rate)
+        self.utilisation = 0.0               # the larger axle's friction utilisation
 
 
 class SideslipFusion(Estimator):
@@ -350,14 +363,18 @@ class SideslipFusion(Estimator):
         # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
         # whose likelihoods need the per-sample (white) noise
         self._corr = max(cfg.slip_correlation_time / ts, 1.0) if self._robust else 1.0
-        self._bounds = ((Fs.LN_CF, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
-                        (Fs.LN_CR, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
-                        (Fs.LN_MU, math.log(cfg.mu_min), math.log(cfg.mu_max)))
+        self._bounds = ((_LN_CF, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
+                        (_LN_CR, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
+                        (_LN_MU, math.log(cfg.mu_min), math.log(cfg.mu_max)))
         window = max(int(round(cfg.adapt_window / ts)), 1)
-        modes = [_Mode(KalmanFilter(x0, np.diag(p0)), 1.0, 0.0, window)]
+        history = int(math.ceil(cfg.max_delay / ts)) + 2
+        # the samples a delayed fix needs: the filters' own (extrapolation) or the inputs and snapshots (re-run)
+        self._history = None if cfg.fix_extrapolation else deque(maxlen=history)
+        per_filter = history if cfg.fix_extrapolation else 0
+        modes = [_Mode(KalmanFilter(x0, np.diag(p0)), 1.0, 0.0, window, per_filter)]
         if cfg.formulation == IMM:
             modes.append(_Mode(KalmanFilter(x0, np.diag(p0)), cfg.slide_factor, (cfg.slide_accel * ts) ** 2,
-                               window))
+                               window, per_filter))
             self._prob = np.array([0.9, 0.1])
             p = cfg.mode_switch
             self._trans = np.array([[1.0 - p, p], [p, 1.0 - p]])
@@ -366,7 +383,6 @@ class SideslipFusion(Estimator):
         self._modes = modes
         self._x, self._P = x0.copy(), np.diag(p0)              # the combined estimate
         self._heading_known = False
-        self._history: deque = deque(maxlen=int(math.ceil(cfg.max_delay / ts)) + 2)
         self._latency = GpsLatency(ts, cfg.gps_latency, cfg.gps_latency_std, cfg.identify_delay,
                                    min(cfg.max_delay, 0.5))
         self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
@@ -374,10 +390,8 @@ class SideslipFusion(Estimator):
         self._r_prev = None
         self._r_dot = self._accel = 0.0
         self._ln_mu_floor = math.log(cfg.mu_min)
-        self._slip_prev = self._slip_rate = (0.0, 0.0)
         self._x_rate = 0.0
         self._started = False
-        self.utilisation = 0.0
 
     # ---------------------------------------------------------------- one sample of the model
     def _inputs(self, u: list, vw: float) -> tuple:
@@ -390,13 +404,13 @@ class SideslipFusion(Estimator):
         if self._r_prev is not None:
             self._r_dot = lowpass(self._r_dot, (r_m - self._r_prev) / ts, ts, cfg.yaw_acc_cutoff)
         self._r_prev = r_m
-        b_ay = self._x[Fs.B_AY]
+        b_ay = self._x[_B_AY]
         # friction floor: the measured horizontal acceleration (offsets removed, low-passed against noise)
-        a = math.hypot(ax - self._x[Fs.B_AX], ay - b_ay)
+        a = math.hypot(ax - self._x[_B_AX], ay - b_ay)
         self._accel = lowpass(self._accel, a, ts, 1.0)
         self._ln_mu_floor = math.log(max(cfg.mu_min, min(0.9 * self._accel / GRAVITY, cfg.mu_max)))
         fyf, fyr = axle_forces(v.m, v.I_zz, v.l_f, v.l_r, ay - b_ay, self._r_dot)
-        shift = v.m * (ax - self._x[Fs.B_AX]) * v.h_cg / v.l            # longitudinal load transfer
+        shift = v.m * (ax - self._x[_B_AX]) * v.h_cg / v.l            # longitudinal load transfer
         fzf, fzr = max(self._fz_static[0] - shift, 0.2 * self._fz_static[0]), \
             max(self._fz_static[1] + shift, 0.2 * self._fz_static[1])
         return (ax, ay, r_m, u[I.DELTA_M], vw, fyf, fyr, fzf, fzr)
@@ -409,15 +423,15 @@ class SideslipFusion(Estimator):
         kf = mode.kf
         xp, F = kinematic_step(kf.x, ax, ay, r_m, ts)
         # a parameter whose variance has reached its prior's gets no more process noise (nothing shows it)
-        Q = np.diag(np.where(np.diagonal(kf.P) < self._p_cap, self._q, 0.0))
-        Q[Fs.VY, Fs.VY] += mode.q_vy
-        kf.predict(xp, F, Q)
+        q = self._q * (kf.P.ravel()[::len(Fs) + 1] < self._p_cap)      # (the diagonal's view)
+        q[_VY] += mode.q_vy
+        kf.predict(xp, F, q)
         # the undriven wheels: their slip grows with the longitudinal acceleration
         h, row = wheel_model(kf.x)
         if self._front_undriven:                    # front wheels turn with the steering
             h, row = h * math.cos(delta), row * math.cos(delta)
         # braked or driven wheels slip by up to the friction utilisation of the longitudinal acceleration squared
-        grip = abs(ax) / (math.exp(kf.x[Fs.LN_MU]) * GRAVITY)
+        grip = abs(ax) / (math.exp(kf.x.item(_LN_MU)) * GRAVITY)
         sigma_w = 0.03 + 0.01 * abs(vw) + 0.05 * abs(ax) + 0.2 * abs(vw) * grip * grip
         rw = sigma_w * sigma_w
         Ph = kf.P.dot(row)
@@ -430,7 +444,10 @@ class SideslipFusion(Estimator):
         if vx_ref > self.config.v_min:
             x0 = kf.x
             axles = axle_pseudo(x0, (r_m, delta, fyf, fyr, fzf, fzr), self._geometry, cfg.utilisation_max)
-            for (h, row, alpha, util), rate, monitor in zip(axles, self._slip_rate, mode.monitors):
+            rates = ((axles[0][2] - mode.slip[0]) / ts, (axles[1][2] - mode.slip[1]) / ts)
+            mode.slip = (axles[0][2], axles[1][2])
+            mode.utilisation = max(axles[0][3], axles[1][3])
+            for (h, row, alpha, util), rate, monitor in zip(axles, rates, mode.monitors):
                 h += float(row.dot(kf.x - x0))      # the residual after the other axle's update (linearised)
                 if util >= cfg.utilisation_max and h * alpha <= 0.0:
                     continue                        # saturated: the clipped slip is a lower bound, and the state's
@@ -461,8 +478,8 @@ class SideslipFusion(Estimator):
                 x[i] = lo
             elif x[i] > hi:
                 x[i] = hi
-        if x[Fs.LN_MU] < self._ln_mu_floor:        # the road carries at least what the car is measured to do
-            x[Fs.LN_MU] = self._ln_mu_floor
+        if x[_LN_MU] < self._ln_mu_floor:        # the road carries at least what the car is measured to do
+            x[_LN_MU] = self._ln_mu_floor
 
 
     def _sample_all(self, inp: tuple, vx_ref: float) -> None:
@@ -507,17 +524,19 @@ class SideslipFusion(Estimator):
         self._x, self._P = x, P
 
     # ---------------------------------------------------------------- GNSS
-    def _gnss_update(self, ve: float, vn: float, accel: float) -> float:
-        """Apply a fix to every filter at its current sample; returns the (probability-weighted) NIS."""
+    def _gnss_update(self, ve: float, vn: float, accel: float, lag: int = 0) -> float:
+        """Apply a fix taken ``lag`` samples ago to every filter (extrapolated to now, :class:`DelayedMeasurements`;
+        at the current sample without them); returns the (probability-weighted) NIS."""
         cfg = self.config
         noise = cfg.sigma_gnss ** 2 + (accel * self._latency.std) ** 2
         R = np.eye(2) * noise
         z = np.array([ve, vn])
         nis_sum, logs = 0.0, []
         for m in self._modes:
-            h, H = gnss_model(m.kf.x)
-            S = H.dot(m.kf.P).dot(H.T) + R
-            nis = m.kf.update(z - h, H, R)
+            x_s, P_s = (m.kf.x, m.kf.P) if m.delayed is None else m.delayed.past(lag)
+            h, H = gnss_model(x_s)
+            S = H.dot(P_s).dot(H.T) + R
+            nis = m.kf.update(z - h, H, R) if m.delayed is None else m.delayed.update(lag, z - h, H, R)
             self._bound(m.kf)
             nis_sum += nis
             logs.append(-0.5 * (nis + math.log(max(np.linalg.det(S), 1e-300))))
@@ -529,22 +548,25 @@ class SideslipFusion(Estimator):
         return nis_sum / len(self._modes)
 
     def _snapshot(self) -> list:
-        return [(m.kf.x.copy(), m.kf.P.copy()) for m in self._modes] + [self._prob.copy()]
+        return [(m.kf.x.copy(), m.kf.P.copy(), m.slip) for m in self._modes] + [self._prob.copy()]
 
     def _restore(self, snap: list) -> None:
-        for m, (x, P) in zip(self._modes, snap):
-            m.kf.x, m.kf.P = x.copy(), P.copy()
+        for m, (x, P, slip) in zip(self._modes, snap):
+            m.kf.x, m.kf.P, m.slip = x.copy(), P.copy(), slip
         self._prob = snap[-1].copy()
 
     def _apply_fix(self, ve: float, vn: float, accel: float) -> float:
-        """A fix taken ``delay`` ago: applied at its own sample and re-propagated to now (measurement shifting)."""
+        """A fix taken ``delay`` ago, at its own sample (module docstring): extrapolated to now, or applied there
+        and the filter re-run to now from the stored inputs."""
+        lag = self._latency.lag(self.Ts)
         hist = self._history
-        back = self._latency.lag(self.Ts)
-        if back <= 0 or back >= len(hist):
+        if hist is None:
+            return self._gnss_update(ve, vn, accel, lag)
+        if lag <= 0 or lag >= len(hist):
             nis = self._gnss_update(ve, vn, accel)
             hist[-1][2] = self._snapshot()
             return nis
-        s = len(hist) - 1 - back
+        s = len(hist) - 1 - lag
         self._restore(hist[s][2])
         nis = self._gnss_update(ve, vn, accel)
         hist[s][2] = self._snapshot()
@@ -569,7 +591,7 @@ class SideslipFusion(Estimator):
 
     # ---------------------------------------------------------------- the sample
     def _sample(self, u):
-        I, cfg, ts = self.In, self.config, self.Ts
+        I, cfg = self.In, self.config
         vw = self.speed(u)
         if not self._started:                          # start at the wheels' speed, straight ahead
             if vw < 0.5 * cfg.v_min:
@@ -581,17 +603,16 @@ class SideslipFusion(Estimator):
                 m.kf.P[Fs.VY, Fs.VY] = (0.05 * vw) ** 2
             self._started = True
         inp = self._inputs(u, vw)
-        vx_ref = float(self._x[Fs.VX])
-        front, rear = axle_pseudo(self._x, (inp[2], inp[3], *inp[5:]), self._geometry, cfg.utilisation_max)
-        prev_f, prev_r = self._slip_prev
-        self._slip_rate = ((front[2] - prev_f) / ts, (rear[2] - prev_r) / ts)
-        self._slip_prev = (front[2], rear[2])
-        self.utilisation = max(front[3], rear[3])
+        vx_ref = float(self._x[_VX])
         self._sample_all(inp, vx_ref)
-        self._history.append([inp, vx_ref, self._snapshot()])
+        if self._history is None:
+            for m in self._modes:
+                m.delayed.push()
+        else:
+            self._history.append([inp, vx_ref, self._snapshot()])
         self._combine()
         x = self._x
-        r = inp[2] - x[Fs.B_R]
+        r = inp[2] - x[_B_R]
         self._x_rate = r
         self._latency.push(r, self.beta)
         gnss = cfg.use_gnss and u[I.GPS_VALID] != 0.0
@@ -601,23 +622,27 @@ class SideslipFusion(Estimator):
             speed = math.hypot(ve, vn)
             if speed > cfg.course_speed:
                 self._latency.add_fix(math.atan2(vn, ve), r)
-            if not self._heading_known or self._P[Fs.PSI, Fs.PSI] > cfg.heading_reset ** 2:
+            if not self._heading_known or self._P[_PSI, _PSI] > cfg.heading_reset ** 2:
                 if speed > cfg.course_speed:
                     self._init_heading(ve, vn)
-                    self._history.clear()
-                    self._history.append([inp, vx_ref, self._snapshot()])
+                    if self._history is None:
+                        for m in self._modes:
+                            m.delayed.clear()
+                    else:
+                        self._history.clear()
+                        self._history.append([inp, vx_ref, self._snapshot()])
             else:
                 self._gps_nis.add(self._apply_fix(ve, vn, math.hypot(inp[0], inp[1])), 2)
             self._combine()
             x = self._x
-        x[Fs.PSI] = math.remainder(x[Fs.PSI], 2.0 * math.pi)
+        x[_PSI] = math.remainder(x[_PSI], 2.0 * math.pi)
         for m in self._modes:
-            m.kf.x[Fs.PSI] = math.remainder(m.kf.x[Fs.PSI], 2.0 * math.pi)
+            m.kf.x[_PSI] = math.remainder(m.kf.x[_PSI], 2.0 * math.pi)
         P = self._P
-        vx, vy = float(x[Fs.VX]), float(x[Fs.VY])
-        self.vx, self.vy, self.yaw_rate = vx, vy, float(inp[2] - x[Fs.B_R])
+        vx, vy = float(x[_VX]), float(x[_VY])
+        self.vx, self.vy, self.yaw_rate = vx, vy, float(inp[2] - x[_B_R])
         self.beta = math.atan2(vy, vx) if vx > 0.1 else 0.0
-        std = beta_std(vx, vy, P[Fs.VX, Fs.VX], P[Fs.VY, Fs.VY], P[Fs.VX, Fs.VY])
+        std = beta_std(vx, vy, P[_VX, _VX], P[_VY, _VY], P[_VX, _VY])
         if gnss and self._heading_known:
             std *= self._gps_nis.inflation()
         self.beta_std = std
@@ -626,11 +651,12 @@ class SideslipFusion(Estimator):
 
     def _extras(self) -> tuple:
         x, g = self._x, self._geometry
-        mu = math.exp(x[Fs.LN_MU])
-        c_f = axle_stiffness(g[2], g[4], g[6], mu)[0] * math.exp(x[Fs.LN_CF])
-        c_r = axle_stiffness(g[3], g[5], g[6], mu)[0] * math.exp(x[Fs.LN_CR])
-        return (math.remainder(float(x[Fs.PSI]), 2.0 * math.pi), float(x[Fs.B_R]), float(x[Fs.B_AX]),
-                float(x[Fs.B_AY]), float(x[Fs.D_DELTA]), c_f, c_r, mu, min(self.utilisation, 1.0),
+        mu = math.exp(x[_LN_MU])
+        c_f = axle_stiffness(g[2], g[4], g[6], mu)[0] * math.exp(x[_LN_CF])
+        c_r = axle_stiffness(g[3], g[5], g[6], mu)[0] * math.exp(x[_LN_CR])
+        utilisation = sum(p * m.utilisation for p, m in zip(self._prob, self._modes))
+        return (math.remainder(float(x[_PSI]), 2.0 * math.pi), float(x[_B_R]), float(x[_B_AX]),
+                float(x[_B_AY]), float(x[_D_DELTA]), c_f, c_r, mu, min(float(utilisation), 1.0),
                 self._latency.value, float(self._prob[1]) if len(self._prob) > 1 else 0.0)
 
     def _pack(self) -> tuple:
