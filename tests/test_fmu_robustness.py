@@ -210,14 +210,14 @@ def test_instantiate_free_cycles_leave_memory_flat(fmu_dir, tmp_path):
         for i in range(250):                # the allocator's arenas fill first, then stay
             cycle(i)
         gc.collect(); a = rss()
-        for i in range(400):
+        for i in range(200):
             cycle(i)
         gc.collect(); print(rss() - a)
     ''')
     proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     grown_kb = int(proc.stdout.split()[-1])
-    assert grown_kb < 100, f"{grown_kb} KB over 400 cycles"       # was 6-8 KB per cycle
+    assert grown_kb < 100, f"{grown_kb} KB over 200 cycles"       # was 6-8 KB per cycle
 
 
 # ---------------------------------------------------------------- each FMU runs its own code

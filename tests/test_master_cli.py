@@ -167,7 +167,7 @@ def test_cli_run_names_the_sensor_offsets_and_what_the_estimators_assume(fmu_dir
 
 def test_cli_bench_json(fmu_dir):
     proc = subprocess.run([sys.executable, "-m", "sideslip", "--fmu-dir", str(fmu_dir), "bench", "--json",
-                           "--duration", "0.3"], capture_output=True, text=True, timeout=300)
+                           "--duration", "0.3", "--repeats", "1"], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     b = json.loads(proc.stdout)
     assert set(b["fmus"]) >= {"VehiclePlant", "VehicleSensors", "ManeuverDriver"}
