@@ -392,6 +392,7 @@ class SideslipFusion(Estimator):
         self._ln_mu_floor = math.log(cfg.mu_min)
         self._x_rate = 0.0
         self._started = False
+        self._extra_values = self._compute_extras()
 
     # ---------------------------------------------------------------- one sample of the model
     def _inputs(self, u: list, vw: float) -> tuple:
@@ -648,8 +649,13 @@ class SideslipFusion(Estimator):
         self.beta_std = std
         self.valid = (vx > cfg.v_min and vw > cfg.v_min and (self._heading_known or not gnss)
                       and (not gnss or self._gps_nis.consistent))
+        self._extra_values = self._compute_extras()
 
     def _extras(self) -> tuple:
+        return self._extra_values
+
+    def _compute_extras(self) -> tuple:
+        """The extra outputs of the current estimate (once per sample: the outputs read them every step)."""
         x, g = self._x, self._geometry
         mu = math.exp(x[_LN_MU])
         c_f = axle_stiffness(g[2], g[4], g[6], mu)[0] * math.exp(x[_LN_CF])

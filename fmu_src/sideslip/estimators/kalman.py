@@ -244,18 +244,14 @@ class DelayedMeasurements:
         G = P.dot(H.T)                                     # P_s H^T
         S = H.dot(G) + R
         Si = np.linalg.inv(S)
-        Siy = Si.dot(y)
-        M = None
+        MG = G                                              # M_j P_s H^T, M_s = I
         for j in range(s, len(samples)):
             x, P, A = samples[j]
-            if M is None:
-                MG = G
-                M = self.kf._eye
-            else:
-                M = A.dot(M)
-                MG = M.dot(G)
-            P = P - MG.dot(Si).dot(MG.T)
-            samples[j] = (x + MG.dot(Siy), 0.5 * (P + P.T), A)
+            if j > s:
+                MG = A.dot(MG)                              # M_j = A_j M_(j-1)
+            W = MG.dot(Si)
+            samples[j] = (x + W.dot(y), P - W.dot(MG.T), A)
         kf = self.kf
-        kf.x, kf.P = samples[-1][0].copy(), samples[-1][1].copy()
-        return float(y.dot(Siy))
+        P = samples[-1][1]
+        kf.x, kf.P = samples[-1][0].copy(), 0.5 * (P + P.T)
+        return float(y.dot(Si).dot(y))
