@@ -15,7 +15,7 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   ``max_delay`` seconds are kept, the fix's innovation and gain are those of its own sample and
   the correction is carried to now through the filter's steps since (Larsen 1998,
   :class:`~sideslip.estimators.kalman.DelayedMeasurements`; re-running the filter from the fix's
-  sample, as Yoon 2014 Fig. 7 does, doubled the filter's cost for the same accuracy on the
+  sample, as Yoon 2014 Fig. 7 does, costs 1.5 times as much for the same accuracy on the
   training set, ``docs/estimator.md``).  The delay is identified while turning
   (:class:`~sideslip.estimators.delay.GpsLatency`); its uncertainty enters the fix's noise as the
   acceleration times the delay's std.  GNSS makes the heading, the gyro offset, the accelerometer
@@ -290,8 +290,8 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
     sigma_gnss: float = param(0.1, "Velocity", "GNSS velocity noise per axis", gt=0, le=10)
     max_delay: float = param(0.5, "Time", "Largest GNSS delay handled (length of the history)", gt=0, le=2)
     fix_extrapolation: bool = param(True, "Dimensionless", "Apply a delayed GNSS fix by carrying its correction "
-                                    "from its sample to now through the filter's steps (Larsen 1998, about half "
-                                    "the cost); false: re-run the filter from the fix's sample (measurement "
+                                    "from its sample to now through the filter's steps (Larsen 1998, two thirds "
+                                    "of the cost); false: re-run the filter from the fix's sample (measurement "
                                     "shifting)")
     heading_reset: float = param(0.2, "Angle", "Heading std above which the heading is re-initialised from the "
                                  "course at the next fix", gt=0, le=3.2)
