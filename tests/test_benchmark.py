@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sideslip.recording import Recording
-from sideslip.scenarios import BENCHMARK_TEST, BENCHMARK_TRAINING
+from sideslip.scenarios import BENCHMARK_DEVELOPMENT, BENCHMARK_TEST, BENCHMARK_TRAINING
 from sideslip.studies import benchmark as bm
 from sideslip.studies.leaderboard import summarise, write_report
 from sideslip.vehicles import load_vehicle
@@ -16,10 +16,11 @@ DEG = math.pi / 180.0
 
 
 def test_training_and_test_sets_are_disjoint_in_maneuver_speed_vehicle_and_friction():
-    train = {(s.maneuver, s.vehicle, s.road_mu) for s in BENCHMARK_TRAINING}
+    train = {(s.maneuver, s.vehicle, s.road_mu) for s in BENCHMARK_TRAINING + BENCHMARK_DEVELOPMENT}
     test = {(s.maneuver, s.vehicle, s.road_mu) for s in BENCHMARK_TEST}
     assert not train & test
-    assert not {s.name for s in BENCHMARK_TRAINING} & {s.name for s in BENCHMARK_TEST}
+    assert not {s.name for s in BENCHMARK_TRAINING + BENCHMARK_DEVELOPMENT} & {s.name for s in BENCHMARK_TEST}
+    assert len(bm.cases(seeds=2, development=True)) == len(BENCHMARK_DEVELOPMENT) * len(bm.CONDITIONS) * 2
     assert len(bm.cases(seeds=5)) == len(BENCHMARK_TEST) * len(bm.CONDITIONS) * 5
     with pytest.raises(ValueError, match="unknown condition"):
         bm.cases(conditions=("rain",))

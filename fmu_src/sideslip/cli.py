@@ -162,7 +162,7 @@ def _cmd_benchmark(args) -> int:
     seeds = args.seeds or (2 if args.quick else 5)
     conditions = args.condition or (("nominal", "sensors+mismatch") if args.quick else bm.CONDITIONS)
     cases = [] if args.log and not args.scenario else bm.cases(args.scenario or None, conditions, seeds,
-                                                                training=args.training)
+                                                                training=args.training, development=args.development)
     cases += [bm.log_case(path, args.map, args.vehicle) for path in args.log or ()]
     print(f"benchmark: {len(cases)} cases ({len({c.scenario for c in cases})} scenarios x {len(conditions)} "
           f"conditions x {seeds} seeds) -> {args.out}", file=sys.stderr)
@@ -170,10 +170,10 @@ def _cmd_benchmark(args) -> int:
     rows = bm.select_rows(args.estimator)
     results = bm.run_benchmark(cases, rows, args.workers, args.scheduler, progress=sys.stderr.isatty())
     wall = time.perf_counter() - t0
-    meta = {"seeds": seeds, "conditions": list(conditions), "training": args.training, "wall_s": wall,
+    which = "training" if args.training else "development" if args.development else "test"
+    meta = {"seeds": seeds, "conditions": list(conditions), "training": args.training, "set": which, "wall_s": wall,
             "cases": len(cases), "quick": args.quick}
-    write_report(results, args.out, title="Sideslip estimator benchmark (" +
-                 ("training set" if args.training else "test set") + ")", meta=meta)
+    write_report(results, args.out, title=f"Sideslip estimator benchmark ({which} set)", meta=meta)
     print((Path(args.out) / "leaderboard.md").read_text())
     print(f"{len(cases)} cases in {wall:.0f} s; wrote {args.out}/leaderboard.md, benchmark.json, heatmap.png, "
           "errors_*.png")
@@ -326,7 +326,10 @@ def main(argv=None) -> int:
                              "x seed): leaderboard, JSON, heat map, error plots")
     case_args(bench_e, "2 seeds, conditions nominal and sensors+mismatch", "default 5, quick 2",
               "only this condition", "only this scenario")
-    bench_e.add_argument("--training", action="store_true", help="the training set instead of the test set")
+    which = bench_e.add_mutually_exclusive_group()
+    which.add_argument("--training", action="store_true", help="the training set instead of the test set")
+    which.add_argument("--development", action="store_true", help="the development set (failure cases the training "
+                       "set does not show) instead of the test set")
     bench_e.add_argument("--estimator", action="append", help="only this row, by label or estimator name, e.g. "
                          "Yoon2014DualKF/hardened or Yoon2014DualKF (repeatable; predict-zero always runs)")
     bench_e.add_argument("--log", action="append", help="a recorded drive (CSV log with a reference sideslip) as a case; "

@@ -19,7 +19,8 @@ from .plant.maneuvers import parse_maneuver
 from .constants import GRAVITY, STANDARD_GRAVITY
 
 __all__ = ["FMVSS_FACTORS", "Scenario", "SCENARIOS", "get_scenario", "scenario_names", "fmvss126_reference_angle",
-           "scenario_params", "BENCHMARK_TRAINING", "BENCHMARK_TEST"]
+           "scenario_params", "BENCHMARK_TRAINING", "BENCHMARK_TEST",
+           "BENCHMARK_DEVELOPMENT"]
 
 _DEG = math.pi / 180.0
 _KMH = 1.0 / 3.6
@@ -445,7 +446,26 @@ BENCHMARK_TEST = (
 )
 """Scenarios the benchmark reports on: no maneuver, speed, vehicle and friction combination of the training set."""
 
-for _sc in BENCHMARK_TRAINING + BENCHMARK_TEST:
+BENCHMARK_DEVELOPMENT = (
+    _bench("bench_dev_jturn_suv_ice", "Development: J-turn at 10 m/s on ice, SUV, mu 0.3", "pi2011_suv",
+           _spec("j_turn", v0=10.0, v=10.0, amplitude=3.0, rate=6.0, t_start=4.0, duration=14.0), road_mu="0.3"),
+    _bench("bench_dev_jturn_asm_ice", "Development: J-turn at 12 m/s on ice, small car, mu 0.25", "kim2016_asm",
+           _spec("j_turn", v0=12.0, v=12.0, amplitude=3.0, rate=8.0, t_start=4.0, duration=14.0), road_mu="0.25"),
+    _bench("bench_dev_ait_sonata", "Development: acceleration in a 40 m circle to the right, 8 -> 15 m/s, Sonata, "
+           "mu 1.0", "park2018_sonata", _spec("circle", v0=8.0, v=15.0, t_go=8.0, accel=0.6, radius=-40.0,
+                                              lead_in=20.0, duration=40.0)),
+    _bench("bench_dev_ait_suv_wet", "Development: acceleration in a 50 m circle, 8 -> 14 m/s, SUV, mu 0.6",
+           "pi2011_suv", _spec("circle", v0=8.0, v=14.0, t_go=8.0, accel=0.4, radius=50.0, lead_in=20.0,
+                               duration=40.0), road_mu="0.6"),
+    _bench("bench_dev_changing_mu_asm", "Development: 0.35 Hz sine steer at 15 m/s while the friction drops from "
+           "0.9 to 0.3 and returns, small car", "kim2016_asm",
+           _spec("sine_steer", v0=15.0, v=15.0, amplitude=1.0, frequency=0.35, cycles=7.0, t_start=3.0,
+                 duration=28.0), road_mu="0:0.9, 9:0.9, 9.5:0.3, 18:0.3, 18.5:0.9"),
+)
+"""Failure cases the training set does not show, for checking a design's idea before the training set chooses its
+settings; disjoint from the test set like the training set, and never reported as the benchmark's result."""
+
+for _sc in BENCHMARK_TRAINING + BENCHMARK_TEST + BENCHMARK_DEVELOPMENT:
     _add(_sc)
 
 CONTROL_LAUNCH = Scenario(

@@ -37,14 +37,22 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   ``alpha = 3 mu F_z / C (1 - (1 - |F_y| / (mu F_z))^(1/3))``, whose cornering stiffness
   ``C = s C_nominal(mu)`` (the vehicle file's stiffness, softer on low friction, :func:`axle_stiffness`)
   and friction ``mu`` are states (log-scaled, bounded; the friction also from below by the measured
-  acceleration, ``mu >= 0.9 |a| / g``).  The slip angles tie
+  acceleration, ``mu >= 0.9 |a| / g``).  A braked or driven axle has less friction left for its lateral
+  force: ``mu F_z`` is replaced by ``sqrt((mu F_z)^2 - F_x^2)`` (friction ellipse, :func:`lateral_capacity`),
+  ``F_x`` being ``m a_x`` by the vehicle file's drive or brake split (``combined_slip``; training set,
+  brake in a turn on snow 0.306 -> 0.292 deg).  The slip angles tie
   the lateral velocity to the yaw rate and the steering:
   ``v_y - l_r r + v_x alpha_r = 0`` and ``v_y + l_f r - v_x (delta_m - d_delta - alpha_f) = 0``
   (``d_delta`` the steering offset, a state).  With GNSS they calibrate the tire model; without
   it they are what holds the lateral velocity.  Their noise is the tire's transient (relaxation)
   and the brush model's error, which grows with the friction utilisation ``|F_y| / (mu F_z)``,
   inflated by the error's correlation time, by covariance matching and by a Huber gate; beyond
-  ``utilisation_max`` the slip is a lower bound (a state sliding further is not corrected).
+  ``utilisation_max`` the slip is a lower bound (a state sliding further is not corrected).  Where the
+  state's slip angle of an axle is beyond the brush tire's full slide ``3 F_max / C`` (the friction
+  estimate too high for what the car does), the axle carries all its friction, ``|F_y| = F_max``: the
+  brush model's sliding branch, ``ln(|F_y| / F_max) = 0``, measures the friction instead of pulling the
+  slip back (``sliding_friction``; development set, friction drop under the small car 0.93 -> 0.50 deg,
+  J-turn on ice 0.26 -> 0.15).
 
 State: :class:`Fs` (12).  Two formulations (``formulation``), compared on the benchmark
 (``docs/estimator.md``):
@@ -94,7 +102,7 @@ from .kalman import DelayedMeasurements, KalmanFilter
 from .roll import RollCompensator
 
 __all__ = ["SideslipFusionConfig", "SideslipFusion", "Fs", "EKF", "IMM", "kinematic_step", "gnss_model",
-           "wheel_model", "axle_pseudo", "axle_stiffness", "fiala_slip"]
+           "wheel_model", "axle_pseudo", "axle_stiffness", "fiala_slip", "lateral_capacity"]
 
 EKF, IMM = 0, 1
 """Values of the ``formulation`` parameter."""
@@ -197,6 +205,25 @@ def axle_stiffness(c_hi: float, c_lo: float, mu_lo: float, mu: float) -> tuple[f
     return c, mu * (c_hi - c_lo) / ((1.0 - mu_lo) * c)
 
 
+def lateral_capacity(f_max: float, f_x: float) -> tuple[float, float]:
+    """The lateral force an axle can carry beside its longitudinal force ``f_x`` [N] (friction ellipse, isotropic:
+    ``sqrt(F_max^2 - F_x^2)``, at least ``CAPACITY_MIN F_max``) and its ``d ln / d ln F_max``.
+
+    The brush model's combined slip: a braked or driven tire has used part of its friction, so it slides
+    sideways earlier (the brush model at combined slip, Pacejka, *Tire and Vehicle Dynamics*, ch. 3: the
+    slip's magnitude, whatever its direction, saturates the friction circle).
+    """
+    f2 = f_max * f_max
+    lat2 = f2 - f_x * f_x
+    if lat2 <= (CAPACITY_MIN * f_max) ** 2:        # more than the friction estimate allows: it is too low
+        return CAPACITY_MIN * f_max, 1.0
+    return math.sqrt(lat2), f2 / lat2
+
+
+CAPACITY_MIN = 0.3
+"""Smallest share of an axle's friction :func:`lateral_capacity` leaves for its lateral force."""
+
+
 def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tuple:
     """The two tire pseudo-measurements (module docstring): for each axle the residual ``h(x)`` (measured 0),
     its Jacobian row and the axle's slip angle and utilisation.
@@ -206,7 +233,8 @@ def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tup
     x : ndarray
         State (:class:`Fs`).
     inp : tuple
-        ``(r_m, delta_m, F_yf, F_yr, F_zf, F_zr)`` of the sample.
+        ``(r_m, delta_m, F_yf, F_yr, F_zf, F_zr, F_xf, F_xr)`` of the sample (the axles' longitudinal forces
+        derate their lateral friction, :func:`lateral_capacity`; zero for the pure-slip tire).
     geometry : tuple
         ``(l_f, l_r, C_f, C_r, C_f_lo, C_r_lo, mu_lo, m_f, m_r)``: the vehicle file's axle stiffnesses at friction 1
         and ``mu_lo`` (:func:`axle_stiffness`; the states scale them) and the axles' shares of the mass
@@ -217,9 +245,10 @@ def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tup
     Returns
     -------
     tuple
-        ``((h_f, row_f, alpha_f, u_f), (h_r, row_r, alpha_r, u_r))``.
+        Per axle (front, rear): the residual, its row, the slip angle [rad], the utilisation ``|F_y| / F_max``,
+        the slip angle at which the brush tire slides entirely ``3 F_max / C`` [rad] and ``d ln F_max / d ln mu``.
     """
-    r_m, delta, fyf, fyr, fzf, fzr = inp
+    r_m, delta, fyf, fyr, fzf, fzr, fxf, fxr = inp
     l_f, l_r, c_f, c_r, c_f_lo, c_r_lo, mu_lo, m_f, m_r = geometry
     vx, vy, _, b_r, _, _, d_delta, ln_cf, ln_cr, ln_mu, _, _ = x.tolist()          # Fs order
     mu = math.exp(ln_mu)
@@ -228,8 +257,10 @@ def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tup
     cf, kf = axle_stiffness(c_f, c_f_lo, mu_lo, mu)
     cr, kr = axle_stiffness(c_r, c_r_lo, mu_lo, mu)
     cf_s, cr_s = cf * math.exp(ln_cf), cr * math.exp(ln_cr)
-    a_f, da_cf, da_mf, u_f = fiala_slip(fyf, cf_s, mu * fzf, u_max)
-    a_r, da_cr, da_mr, u_r = fiala_slip(fyr, cr_s, mu * fzr, u_max)
+    fmf, gf = lateral_capacity(mu * fzf, fxf)
+    fmr, gr = lateral_capacity(mu * fzr, fxr)
+    a_f, da_cf, da_mf, u_f = fiala_slip(fyf, cf_s, fmf, u_max)
+    a_r, da_cr, da_mr, u_r = fiala_slip(fyr, cr_s, fmr, u_max)
     # the forces come from a_y - b_ay: the offset moves the slip by -m_axle / C per m/s2, taken in the linear range
     # where it is identified (the brush model's 1 / (C (1 - u)^(2/3)) would read its own error near saturation as
     # an accelerometer offset: training set, brake in a turn on snow 0.38 deg against 0.31)
@@ -237,12 +268,12 @@ def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tup
     h_f = vy + l_f * r - vx * (steer - a_f)
     row_f = np.zeros(n)
     row_f[_VX], row_f[_VY], row_f[_B_R], row_f[_D_DELTA] = a_f - steer, 1.0, -l_f, vx
-    row_f[_LN_CF], row_f[_LN_MU], row_f[_B_AY] = vx * da_cf, vx * (da_mf + kf * da_cf), -vx * m_f / cf_s
+    row_f[_LN_CF], row_f[_LN_MU], row_f[_B_AY] = vx * da_cf, vx * (gf * da_mf + kf * da_cf), -vx * m_f / cf_s
     h_r = vy - l_r * r + vx * a_r
     row_r = np.zeros(n)
     row_r[_VX], row_r[_VY], row_r[_B_R] = a_r, 1.0, l_r
-    row_r[_LN_CR], row_r[_LN_MU], row_r[_B_AY] = vx * da_cr, vx * (da_mr + kr * da_cr), -vx * m_r / cr_s
-    return (h_f, row_f, a_f, u_f), (h_r, row_r, a_r, u_r)
+    row_r[_LN_CR], row_r[_LN_MU], row_r[_B_AY] = vx * da_cr, vx * (gr * da_mr + kr * da_cr), -vx * m_r / cr_s
+    return (h_f, row_f, a_f, u_f, 3.0 * fmf / cf_s, gf), (h_r, row_r, a_r, u_r, 3.0 * fmr / cr_s, gr)
 
 
 # ------------------------------------------------------------------------------ configuration
@@ -285,6 +316,15 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                            gt=0, le=10)
     mu_min: float = param(0.1, "FrictionCoefficient", "Smallest friction", gt=0, le=1)
     mu_max: float = param(1.3, "FrictionCoefficient", "Largest friction", ge=0.5, le=3)
+    combined_slip: bool = param(True, "Dimensionless", "Derate each axle's lateral friction by its longitudinal "
+                                "force, m a_x by the vehicle's drive or brake split (friction ellipse, "
+                                "lateral_capacity); false: the pure-slip brush tire")
+    sliding_friction: bool = param(True, "Dimensionless", "Where the state's slip angle of an axle is beyond the "
+                                   "brush tire's full slide, take the axle's force as its friction (the sliding "
+                                   "branch) instead of a slip angle from it; false: skip nothing, the slip from the "
+                                   "force")
+    sliding_friction_std: float = param(0.2, "Dimensionless", "Uncertainty of the log friction a sliding axle's "
+                                        "force gives", gt=0, le=10)
     utilisation_max: float = param(0.95, "Dimensionless", "Friction utilisation beyond which the tire model gives "
                                    "no slip angle", gt=0, lt=1)
     sigma_slip: float = param(0.004, "Angle", "Slip-angle noise of the tire pseudo-measurements (sensor noise, "
@@ -411,6 +451,7 @@ class SideslipFusion(Estimator):
         self._r_dot = self._accel = 0.0
         self._ln_mu_floor = math.log(cfg.mu_min)
         self._x_rate = 0.0
+        self._row_mu = _EYE[_LN_MU]
         self._started = False
         self._extra_values = self._compute_extras()
 
@@ -431,16 +472,23 @@ class SideslipFusion(Estimator):
         self._accel = lowpass(self._accel, a, ts, 1.0)
         self._ln_mu_floor = math.log(max(cfg.mu_min, min(0.9 * self._accel / GRAVITY, cfg.mu_max)))
         fyf, fyr = axle_forces(v.m, v.I_zz, v.l_f, v.l_r, ay - b_ay, self._r_dot)
-        shift = v.m * (ax - self._x[_B_AX]) * v.h_cg / v.l            # longitudinal load transfer
+        fx = v.m * (ax - self._x[_B_AX])
+        shift = fx * v.h_cg / v.l                                    # longitudinal load transfer
         fzf, fzr = max(self._fz_static[0] - shift, 0.2 * self._fz_static[0]), \
             max(self._fz_static[1] + shift, 0.2 * self._fz_static[1])
-        return (ax, ay, r_m, u[I.DELTA_M], vw, fyf, fyr, fzf, fzr)
+        # the axles' longitudinal forces by the drive or brake split (drag and rolling resistance neglected)
+        if cfg.combined_slip:
+            front = v.drive_split_front if fx > 0.0 else v.brake_split_front
+            fxf, fxr = front * fx, (1.0 - front) * fx
+        else:
+            fxf = fxr = 0.0
+        return (ax, ay, r_m, u[I.DELTA_M], vw, fyf, fyr, fzf, fzr, fxf, fxr)
 
     def _advance(self, mode: _Mode, inp: tuple, vx_ref: float) -> float:
         """Time update and the wheel-speed and tire updates of one filter for one sample; returns the log-likelihood
         of the tire pseudo-measurements."""
         cfg, ts = self.config, self.Ts
-        ax, ay, r_m, delta, vw, fyf, fyr, fzf, fzr = inp
+        ax, ay, r_m, delta, vw, fyf, fyr, fzf, fzr, fxf, fxr = inp
         kf = mode.kf
         xp, F = kinematic_step(kf.x, ax, ay, r_m, ts)
         # a parameter whose variance has reached its prior's gets no more process noise (nothing shows it)
@@ -464,11 +512,21 @@ class SideslipFusion(Estimator):
         loglik = 0.0
         if vx_ref > self.config.v_min:
             x0 = kf.x
-            axles = axle_pseudo(x0, (r_m, delta, fyf, fyr, fzf, fzr), self._geometry, cfg.utilisation_max)
+            axles = axle_pseudo(x0, (r_m, delta, fyf, fyr, fzf, fzr, fxf, fxr), self._geometry, cfg.utilisation_max)
             rates = ((axles[0][2] - mode.slip[0]) / ts, (axles[1][2] - mode.slip[1]) / ts)
             mode.slip = (axles[0][2], axles[1][2])
             mode.utilisation = max(axles[0][3], axles[1][3])
-            for (h, row, alpha, util), rate, monitor in zip(axles, rates, mode.monitors):
+            for (h, row, alpha, util, alpha_slide, g), rate, monitor in zip(axles, rates, mode.monitors):
+                slip_state = alpha - h / vx_ref if alpha >= 0.0 else h / vx_ref - alpha     # along the force
+                if cfg.sliding_friction and util > 0.05 and slip_state > alpha_slide:
+                    # the state's slip is beyond the brush tire's full slide: the axle carries all its friction,
+                    # |F_y| = F_max (the sliding branch), which measures the friction and says nothing of the slip
+                    y = -math.log(util) + g * (kf.x.item(_LN_MU) - x0.item(_LN_MU))
+                    rs = cfg.sliding_friction_std ** 2 * self._corr
+                    row_s = self._row_mu * -g
+                    nis = kf.update_scalar(y, row_s, rs)
+                    loglik -= 0.5 * nis
+                    continue
                 h += float(row.dot(kf.x - x0))      # the residual after the other axle's update (linearised)
                 if util >= cfg.utilisation_max and h * alpha <= 0.0:
                     continue                        # saturated: the clipped slip is a lower bound, and the state's

@@ -53,7 +53,7 @@ from ..plant.loop import run_loop
 from ..plant.sensors import SensorConfig, SensorSuite
 from ..plant.vehicle import PlantConfig, VehiclePlant
 from ..recording import LogError, Recording, read_log, replay
-from ..scenarios import BENCHMARK_TEST, BENCHMARK_TRAINING, Scenario, get_scenario
+from ..scenarios import BENCHMARK_DEVELOPMENT, BENCHMARK_TEST, BENCHMARK_TRAINING, Scenario, get_scenario
 from ..signals import SENSOR_INPUTS, SENSOR_OUTPUTS
 from ..vehicles import VehicleParams, load_vehicle
 from .jobs import map_ordered
@@ -118,9 +118,11 @@ def log_case(path: str, log_map: str | None = None, vehicle: str | None = None) 
     return Case(str(path), RECORDED, 0, log_map, vehicle)
 
 
-def cases(scenarios=None, conditions=CONDITIONS, seeds=5, training: bool = False) -> list[Case]:
-    """Every scenario x condition x seed (the test set by default)."""
-    names = scenarios or [s.name for s in (BENCHMARK_TRAINING if training else BENCHMARK_TEST)]
+def cases(scenarios=None, conditions=CONDITIONS, seeds=5, training: bool = False,
+          development: bool = False) -> list[Case]:
+    """Every scenario x condition x seed (the test set by default, or the training or the development set)."""
+    chosen = BENCHMARK_TRAINING if training else BENCHMARK_DEVELOPMENT if development else BENCHMARK_TEST
+    names = scenarios or [s.name for s in chosen]
     for c in conditions:
         if c not in CONDITIONS:
             raise ValueError(f"unknown condition {c!r}; conditions: {', '.join(CONDITIONS)}")
