@@ -191,14 +191,15 @@ def test_a_road_bank_is_a_state_of_its_own_not_a_tire_force():
 
 def test_a_sliding_axle_measures_the_friction_instead_of_pulling_the_slip_back():
     """The friction drops from 0.9 to 0.3 under a sine steer and the small car slides to 15 deg: the brush model at
-    the old friction would call the tires linear and pull the sliding state back (measured: 0.87 deg RMS, the
-    error 5.4 times its std, friction estimated at 1.0-1.3), a sliding axle's force tells the friction."""
+    the old friction would call the tires linear and pull the sliding state back (measured: 0.91 deg RMS, the
+    error 5.5 times its std, friction estimated at 1.17-1.3), a sliding axle's force tells the friction (0.26 deg,
+    1.8 times, 0.26-0.28)."""
     case = B.Case("bench_dev_changing_mu_asm", "sensors+mismatch", 0)
     setup, rec = B.setup(case), B.simulate(case)
     _, res = _run(setup, rec)
     _, old = _run(setup, rec, sliding_friction=False)
     m, o = (B.row_metrics(rec, r["beta_hat"], r["beta_hat_std"], r["valid"]) for r in (res, old))
-    assert m["rms"] < 0.6 * o["rms"] and m["std_ratio"] < 0.7 * o["std_ratio"]     # 0.46 / 0.87, 3.1 / 5.4
+    assert m["rms"] < 0.4 * o["rms"] and m["std_ratio"] < 0.5 * o["std_ratio"]
     low = (rec.time > 12.0) & (rec.time < 17.5)                                    # on mu 0.3, after the slide
     assert np.abs(res["mu_hat"][low] - 0.3).max() < 0.1
     assert old["mu_hat"][low].min() > 0.8

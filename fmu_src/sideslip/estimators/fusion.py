@@ -48,11 +48,12 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   and the brush model's error, which grows with the friction utilisation ``|F_y| / (mu F_z)``,
   inflated by the error's correlation time, by covariance matching and by a Huber gate; beyond
   ``utilisation_max`` the slip is a lower bound (a state sliding further is not corrected).  Where the
-  state's slip angle of an axle is beyond the brush tire's full slide ``3 F_max / C`` (the friction
-  estimate too high for what the car does), the axle carries all its friction, ``|F_y| = F_max``: the
-  brush model's sliding branch, ``ln(|F_y| / F_max) = 0``, measures the friction instead of pulling the
-  slip back (``sliding_friction``; development set, friction drop under the small car 0.93 -> 0.50 deg,
-  J-turn on ice 0.26 -> 0.15).
+  state's slip angle of an axle is beyond the brush tire's at ``utilisation_max``,
+  ``3 F_max / C (1 - (1 - u_max)^(1/3))`` (the friction estimate too high for what the car does), the
+  axle carries all its friction, ``|F_y| = F_max``: the brush model's sliding branch,
+  ``ln(|F_y| / F_max) = 0``, measures the friction instead of pulling the slip back
+  (``sliding_friction``; development set, friction drop under the small car 0.93 -> 0.31 deg, J-turn
+  on ice 0.26 -> 0.14).
 
 State: :class:`Fs` (12).  Two formulations (``formulation``), compared on the benchmark
 (``docs/estimator.md``):
@@ -246,7 +247,8 @@ def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tup
     -------
     tuple
         Per axle (front, rear): the residual, its row, the slip angle [rad], the utilisation ``|F_y| / F_max``,
-        the slip angle at which the brush tire slides entirely ``3 F_max / C`` [rad] and ``d ln F_max / d ln mu``.
+        the brush tire's slip angle at utilisation ``u_max``, ``3 F_max / C (1 - (1 - u_max)^(1/3))`` [rad], and
+        ``d ln F_max / d ln mu``.
     """
     r_m, delta, fyf, fyr, fzf, fzr, fxf, fxr = inp
     l_f, l_r, c_f, c_r, c_f_lo, c_r_lo, mu_lo, m_f, m_r = geometry
@@ -273,7 +275,8 @@ def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tup
     row_r = np.zeros(n)
     row_r[_VX], row_r[_VY], row_r[_B_R] = a_r, 1.0, l_r
     row_r[_LN_CR], row_r[_LN_MU], row_r[_B_AY] = vx * da_cr, vx * (gr * da_mr + kr * da_cr), -vx * m_r / cr_s
-    return (h_f, row_f, a_f, u_f, 3.0 * fmf / cf_s, gf), (h_r, row_r, a_r, u_r, 3.0 * fmr / cr_s, gr)
+    k_max = 1.0 - (1.0 - u_max) ** (1.0 / 3.0)                 # the slip at u_max over the full slide's 3 F_max / C
+    return (h_f, row_f, a_f, u_f, 3.0 * k_max * fmf / cf_s, gf), (h_r, row_r, a_r, u_r, 3.0 * k_max * fmr / cr_s, gr)
 
 
 # ------------------------------------------------------------------------------ configuration
@@ -320,9 +323,9 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                                 "force, m a_x by the vehicle's drive or brake split (friction ellipse, "
                                 "lateral_capacity); false: the pure-slip brush tire")
     sliding_friction: bool = param(True, "Dimensionless", "Where the state's slip angle of an axle is beyond the "
-                                   "brush tire's full slide, take the axle's force as its friction (the sliding "
-                                   "branch) instead of a slip angle from it; false: skip nothing, the slip from the "
-                                   "force")
+                                   "brush tire's at utilisation_max, take the axle's force as its friction (the "
+                                   "sliding branch) instead of a slip angle from it; false: the slip from the force "
+                                   "always")
     sliding_friction_std: float = param(0.2, "Dimensionless", "Uncertainty of the log friction a sliding axle's "
                                         "force gives", gt=0, le=10)
     utilisation_max: float = param(0.95, "Dimensionless", "Friction utilisation beyond which the tire model gives "
@@ -516,11 +519,11 @@ class SideslipFusion(Estimator):
             rates = ((axles[0][2] - mode.slip[0]) / ts, (axles[1][2] - mode.slip[1]) / ts)
             mode.slip = (axles[0][2], axles[1][2])
             mode.utilisation = max(axles[0][3], axles[1][3])
-            for (h, row, alpha, util, alpha_slide, g), rate, monitor in zip(axles, rates, mode.monitors):
+            for (h, row, alpha, util, alpha_max, g), rate, monitor in zip(axles, rates, mode.monitors):
                 slip_state = alpha - h / vx_ref if alpha >= 0.0 else h / vx_ref - alpha     # along the force
-                if cfg.sliding_friction and util > 0.05 and slip_state > alpha_slide:
-                    # the state's slip is beyond the brush tire's full slide: the axle carries all its friction,
-                    # |F_y| = F_max (the sliding branch), which measures the friction and says nothing of the slip
+                if cfg.sliding_friction and util > 0.05 and slip_state > alpha_max:
+                    # the state's slip is beyond the brush tire's at utilisation_max (where its inverse has no
+                    # answer): the axle slides, |F_y| = F_max, which measures the friction and says nothing of the slip
                     y = -math.log(util) + g * (kf.x.item(_LN_MU) - x0.item(_LN_MU))
                     rs = cfg.sliding_friction_std ** 2 * self._corr
                     row_s = self._row_mu * -g
