@@ -45,7 +45,7 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   ``v_y - l_r r + v_x alpha_r = 0`` and ``v_y + l_f r - v_x (delta_m - d_delta - alpha_f) = 0``
   (``d_delta`` the steering offset, a state).  With GNSS they calibrate the tire model; without
   it they are what holds the lateral velocity.  Their noise is the tire's transient (relaxation)
-  and the brush model's error, which grows with the friction utilisation ``|F_y| / (mu F_z)``,
+  and the brush model's error, which grows with the friction utilisation ``|F_y| / F_max``,
   inflated by the error's correlation time, by covariance matching and by a Huber gate; beyond
   ``utilisation_max`` the slip is a lower bound (a state sliding further is not corrected).  Where the
   state's slip angle of an axle is beyond the brush tire's at ``utilisation_max``,
@@ -206,23 +206,23 @@ def axle_stiffness(c_hi: float, c_lo: float, mu_lo: float, mu: float) -> tuple[f
     return c, mu * (c_hi - c_lo) / ((1.0 - mu_lo) * c)
 
 
+CAPACITY_MIN = 0.3
+"""Smallest share of an axle's friction :func:`lateral_capacity` leaves for its lateral force."""
+
+
 def lateral_capacity(f_max: float, f_x: float) -> tuple[float, float]:
     """The lateral force an axle can carry beside its longitudinal force ``f_x`` [N] (friction ellipse, isotropic:
     ``sqrt(F_max^2 - F_x^2)``, at least ``CAPACITY_MIN F_max``) and its ``d ln / d ln F_max``.
 
-    The brush model's combined slip: a braked or driven tire has used part of its friction, so it slides
-    sideways earlier (the brush model at combined slip, Pacejka, *Tire and Vehicle Dynamics*, ch. 3: the
-    slip's magnitude, whatever its direction, saturates the friction circle).
+    A braked or driven tire has used part of its friction, so it slides sideways earlier (the brush model at
+    combined slip, Pacejka, *Tire and Vehicle Dynamics*, ch. 3: the slip's magnitude, whatever its direction,
+    saturates the friction circle).
     """
     f2 = f_max * f_max
     lat2 = f2 - f_x * f_x
     if lat2 <= (CAPACITY_MIN * f_max) ** 2:        # more than the friction estimate allows: it is too low
         return CAPACITY_MIN * f_max, 1.0
     return math.sqrt(lat2), f2 / lat2
-
-
-CAPACITY_MIN = 0.3
-"""Smallest share of an axle's friction :func:`lateral_capacity` leaves for its lateral force."""
 
 
 def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tuple:
