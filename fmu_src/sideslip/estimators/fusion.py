@@ -521,14 +521,16 @@ class SideslipFusion(Estimator):
             mode.utilisation = max(axles[0][3], axles[1][3])
             for (h, row, alpha, util, alpha_max, g), rate, monitor in zip(axles, rates, mode.monitors):
                 slip_state = alpha - h / vx_ref if alpha >= 0.0 else h / vx_ref - alpha     # along the force
-                if cfg.sliding_friction and util > 0.05 and slip_state > alpha_max:
+                if cfg.sliding_friction and util > 0.05 and slip_state > alpha_max:     # (a force to take the log of)
                     # the state's slip is beyond the brush tire's at utilisation_max (where its inverse has no
                     # answer): the axle slides, |F_y| = F_max, which measures the friction and says nothing of the slip
                     y = -math.log(util) + g * (kf.x.item(_LN_MU) - x0.item(_LN_MU))
                     rs = cfg.sliding_friction_std ** 2 * self._corr
                     row_s = self._row_mu * -g
-                    nis = kf.update_scalar(y, row_s, rs)
-                    loglik -= 0.5 * nis
+                    Ph = kf.P.dot(row_s)
+                    var = float(row_s.dot(Ph)) + rs
+                    nis = kf.update_scalar(y, row_s, rs, Ph)
+                    loglik -= 0.5 * (nis + math.log(2.0 * math.pi * var))
                     continue
                 h += float(row.dot(kf.x - x0))      # the residual after the other axle's update (linearised)
                 if util >= cfg.utilisation_max and h * alpha <= 0.0:
