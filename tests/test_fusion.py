@@ -189,13 +189,19 @@ def test_a_road_bank_is_a_state_of_its_own_not_a_tire_force():
     assert s["rms"] > 3.0 * m["rms"] and s["coverage95"] < 0.5
 
 
-def test_a_sliding_axle_measures_the_friction_instead_of_pulling_the_slip_back():
+@pytest.fixture(scope="module")
+def friction_drop():
+    """The development set's friction drop from 0.9 to 0.3 under the small car's sine steer, seed 0."""
+    case = B.Case("bench_dev_changing_mu_asm", "sensors+mismatch", 0)
+    return B.setup(case), B.simulate(case)
+
+
+def test_a_sliding_axle_measures_the_friction_instead_of_pulling_the_slip_back(friction_drop):
     """The friction drops from 0.9 to 0.3 under a sine steer and the small car slides to 15 deg: the brush model at
     the old friction would call the tires linear and pull the sliding state back (measured: 0.91 deg RMS, the
     error 5.5 times its std, friction estimated at 1.17-1.3), a sliding axle's force tells the friction (0.26 deg,
     1.8 times, 0.26-0.28)."""
-    case = B.Case("bench_dev_changing_mu_asm", "sensors+mismatch", 0)
-    setup, rec = B.setup(case), B.simulate(case)
+    setup, rec = friction_drop
     _, res = _run(setup, rec)
     _, old = _run(setup, rec, sliding_friction=False)
     m, o = (B.row_metrics(rec, r["beta_hat"], r["beta_hat_std"], r["valid"]) for r in (res, old))
@@ -203,6 +209,17 @@ def test_a_sliding_axle_measures_the_friction_instead_of_pulling_the_slip_back()
     low = (rec.time > 12.0) & (rec.time < 17.5)                                    # on mu 0.3, after the slide
     assert np.abs(res["mu_hat"][low] - 0.3).max() < 0.1
     assert old["mu_hat"][low].min() > 0.8
+
+
+def test_friction_doubt_widens_the_tire_model_error_where_the_road_may_be_slipperier(friction_drop):
+    """Before the slide shows the new friction the brush model calls the tires linear with confidence; taking its
+    error at a friction three std below the estimate keeps the filter from trusting it (measured: 0.25 -> 0.19 deg
+    RMS, the error 1.78 -> 1.31 times its std)."""
+    setup, rec = friction_drop
+    runs = [_run(setup, rec, friction_doubt=d)[1] for d in (0.0, 3.0)]
+    plain, doubt = (B.row_metrics(rec, r["beta_hat"], r["beta_hat_std"], r["valid"]) for r in runs)
+    assert doubt["rms"] < 0.85 * plain["rms"] and doubt["std_ratio"] < 0.85 * plain["std_ratio"]
+    assert doubt["std_ratio"] < 1.5
 
 
 # the benchmark's test set under sensors+mismatch (seed 0; its two shortest scenarios, both on low friction):

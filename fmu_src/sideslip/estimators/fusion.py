@@ -53,7 +53,10 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   axle carries all its friction, ``|F_y| = F_max``: the brush model's sliding branch,
   ``ln(|F_y| / F_max) = 0``, measures the friction instead of pulling the slip back
   (``sliding_friction``; development set, friction drop under the small car 0.93 -> 0.31 deg, J-turn
-  on ice 0.26 -> 0.14).
+  on ice 0.26 -> 0.14).  Where the tire is linear its slip hardly depends on the friction, so the friction's
+  uncertainty does not reach the pseudo-measurements; ``friction_doubt`` (off by default: the training set does
+  not ask for it) takes the model error's utilisation at a friction that many of its std below the estimate
+  (development set, friction drop 0.28 -> 0.23 deg, the error 2.0 -> 1.6 times its std; ``docs/estimator.md``).
 
 State: :class:`Fs` (12).  Two formulations (``formulation``), compared on the benchmark
 (``docs/estimator.md``):
@@ -330,6 +333,8 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                                         "force gives", gt=0, le=10)
     utilisation_max: float = param(0.95, "Dimensionless", "Friction utilisation beyond which the tire model gives "
                                    "no slip angle", gt=0, lt=1)
+    friction_doubt: float = param(0.0, "Dimensionless", "The tire model's error is taken at the utilisation of a "
+                                  "friction this many of its std below the estimate (0: at the estimate)", ge=0, le=5)
     sigma_slip: float = param(0.004, "Angle", "Slip-angle noise of the tire pseudo-measurements (sensor noise, "
                               "unmodelled dynamics)", gt=0, le=1)
     slip_model_error: float = param(1.0, "Dimensionless", "Relative error of the brush model's slip angle at full "
@@ -519,6 +524,9 @@ class SideslipFusion(Estimator):
             rates = ((axles[0][2] - mode.slip[0]) / ts, (axles[1][2] - mode.slip[1]) / ts)
             mode.slip = (axles[0][2], axles[1][2])
             mode.utilisation = max(axles[0][3], axles[1][3])
+            # the friction's uncertainty is not in the rows where the tire is linear (d alpha / d ln mu ~ 0): a road
+            # slipperier than estimated would make the brush model wrong by more than its own utilisation says
+            doubt = math.exp(cfg.friction_doubt * math.sqrt(kf.P.item(_LN_MU, _LN_MU)))
             for (h, row, alpha, util, alpha_max, g), rate, monitor in zip(axles, rates, mode.monitors):
                 slip_state = alpha - h / vx_ref if alpha >= 0.0 else h / vx_ref - alpha     # along the force
                 if cfg.sliding_friction and util > 0.05 and slip_state > alpha_max:     # (a force to take the log of)
@@ -536,6 +544,7 @@ class SideslipFusion(Estimator):
                 if util >= cfg.utilisation_max and h * alpha <= 0.0:
                     continue                        # saturated: the clipped slip is a lower bound, and the state's
                     #                                 slip exceeds it the same way (a slide): nothing to correct
+                util *= doubt
                 util = util if util < 1.0 else 1.0
                 s = (cfg.sigma_slip + cfg.slip_model_error * util * util * abs(alpha)
                      + cfg.relaxation_length / vx_ref * abs(rate)) * vx_ref * mode.r_scale
