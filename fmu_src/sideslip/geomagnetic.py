@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["INCLINATION", "DECLINATION", "earth_field"]
+__all__ = ["INCLINATION", "DECLINATION", "earth_field", "tilt_compensated_heading"]
 
 INCLINATION = math.radians(68.0)
 """Default inclination (dip) [rad], positive pointing down: about 68 deg, southern Michigan (where
@@ -36,3 +36,36 @@ def earth_field(inclination: float, declination: float) -> tuple[float, float, f
     """
     return (math.cos(inclination) * math.sin(declination), math.cos(inclination) * math.cos(declination),
             -math.sin(inclination))
+
+
+def tilt_compensated_heading(mag: tuple[float, float, float], tilt: float,
+                             declination: float = DECLINATION) -> tuple[float, float, float]:
+    """Heading from a 3-axis magnetometer on a body tilted by ``tilt`` about its x axis (zero pitch).
+
+    The reading is rotated back by the tilt, ``b_y = cos(tilt) m_y - sin(tilt) m_z``, and the
+    horizontal field ``(b_x, b_y)`` points to magnetic north; with the heading counter-clockwise from
+    east (ENU), ``psi = atan2(b_x, b_y) - declination`` (the inverse of :func:`earth_field` seen
+    through ``R_x(tilt)^T R_z(psi)^T``).  The inclination is not needed: it only sets how a tilt error
+    turns into a heading error.
+
+    Parameters
+    ----------
+    mag : tuple of float
+        Magnetometer reading, sensor axes (any scale).
+    tilt : float
+        The body's tilt about x, roll plus the road's bank [rad].
+    declination : float
+        Magnetic north east of true north [rad].
+
+    Returns
+    -------
+    tuple of float
+        The heading [rad], its sensitivity to the tilt ``d psi / d tilt`` [rad/rad] and the horizontal
+        field's norm squared (the reading's units squared; the heading's noise is the reading's over
+        its square root).
+    """
+    mx, my, mz = mag
+    c, s = math.cos(tilt), math.sin(tilt)
+    bx, by, up = mx, c * my - s * mz, s * my + c * mz
+    h2 = bx * bx + by * by
+    return math.atan2(bx, by) - declination, bx * up / h2 if h2 > 0.0 else 0.0, h2

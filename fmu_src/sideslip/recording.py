@@ -45,8 +45,10 @@ from .units import si_factor
 __all__ = ["Recording", "LogError", "read_log", "replay", "OPTIONAL_INPUTS", "LOGGED_INPUTS", "REFERENCES",
            "PLAUSIBLE"]
 
-OPTIONAL_INPUTS = {"Mz_cmd": 0.0, "mu": 1.0}
-"""Inputs a log may lack, with the value used then: no stability controller, a dry road."""
+OPTIONAL_INPUTS = {"Mz_cmd": 0.0, "mu": 1.0, "mag_x": 0.0, "mag_y": 0.0, "mag_z": 0.0}
+"""Inputs a log may lack, with the value used then: no stability controller, a dry road, no magnetometer (a zero
+field, which every estimator takes as disturbed: Yoon 2014 never starts its heading and stays invalid,
+SideslipFusion ignores it)."""
 
 LOGGED_INPUTS = SENSOR_OUTPUTS + tuple(OPTIONAL_INPUTS)
 """Estimator inputs a log's columns are looked up for by contract name."""

@@ -27,6 +27,18 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   acceleration times the delay's std.  GNSS makes the heading, the gyro offset, the accelerometer
   offsets, the rolling radius and the tire parameters observable whenever the car accelerates or
   turns.
+* **Magnetometer** (``use_magnetometer``, :meth:`SideslipFusion._magnetometer_update`): GNSS gives the course,
+  heading plus sideslip; without a heading of its own the filter splits the two by the tire model, and in a long
+  slide or a steady turn the tire model's error drifts the gyro offset and with it the heading (development set,
+  J-turn on ice under the SUV: 1.6 deg of heading and 1.9 deg of sideslip off after 10 s).  Each new reading whose
+  field norm is within ``mag_norm_gate`` of unity gives the heading of the tilt-compensated horizontal field
+  (:func:`~sideslip.geomagnetic.tilt_compensated_heading`), the tilt being the roll model's roll plus the bank,
+  ``asin(g_y / g)``.  Its noise is the reading's over the horizontal field plus the tilt's error (``mag_tilt_std``,
+  ``mag_roll_error`` of the roll, the bank state's std) times ``d psi / d tilt`` (up to ``tan(inclination)``: the
+  site's inclination itself is not needed), the latter counted once per ``mag_tilt_correlation_time``.  The
+  readings are calibrated (hard and soft iron removed, ``mag_declination`` set): a heading error of the
+  magnetometer goes into the sideslip one to one, which is why it is off by default.  It does not enter the IMM's
+  likelihoods (it says nothing about grip or slide).
 * **Wheel speeds** (:func:`wheel_model`): the undriven axle's mean speed is ``(1 + e_w) v_x``
   (``e_w`` the rolling-radius error, a state); its noise grows with the longitudinal friction
   utilisation squared and a Huber gate caps its weight (a braked wheel slips, a locked one slides).
@@ -58,7 +70,7 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   not ask for it) takes the model error's utilisation at a friction that many of its std below the estimate
   (development set, friction drop 0.28 -> 0.23 deg, the error 2.0 -> 1.6 times its std; ``docs/estimator.md``).
 
-State: :class:`Fs` (12).  Two formulations (``formulation``), compared on the benchmark
+State: :class:`Fs` (13).  Two formulations (``formulation``), compared on the benchmark
 (``docs/estimator.md``):
 
 * ``0`` **EKF**: one extended Kalman filter on the model above;
@@ -94,8 +106,10 @@ from enum import IntEnum
 
 import numpy as np
 
+from .. import geomagnetic
 from ..bicycle import axle_forces
 from ..constants import GRAVITY
+from ..geomagnetic import tilt_compensated_heading
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
 from .base import Estimator, EstimatorConfig, beta_std, input_enum, lowpass
@@ -106,7 +120,7 @@ from .kalman import DelayedMeasurements, KalmanFilter
 from .roll import RollCompensator
 
 __all__ = ["SideslipFusionConfig", "SideslipFusion", "Fs", "EKF", "IMM", "kinematic_step", "gnss_model",
-           "wheel_model", "axle_pseudo", "axle_stiffness", "fiala_slip", "lateral_capacity"]
+           "wheel_model", "magnetometer_model", "axle_pseudo", "axle_stiffness", "fiala_slip", "lateral_capacity"]
 
 EKF, IMM = 0, 1
 """Values of the ``formulation`` parameter."""
@@ -114,13 +128,14 @@ EKF, IMM = 0, 1
 
 class Fs(IntEnum):
     """State of :class:`SideslipFusion`: ``G_Y`` is the road bank's gravity term ``g sin(bank)`` in the lateral
-    accelerometer, which moves the car but is not a tire force (``B_AY``, the sensor's offset, is in both)."""
-    VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W, G_Y = range(12)
+    accelerometer, which moves the car but is not a tire force (``B_AY``, the sensor's offset, is in both);
+    ``B_MAG`` the magnetometer's heading offset (a declination or iron error)."""
+    VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W, G_Y, B_MAG = range(13)
 
 
 _EYE = np.eye(len(Fs))
 # plain-int copies of the indices the per-sample functions use: indexing with an IntEnum member costs four times more
-_VX, _VY, _PSI, _B_R, _B_AX, _B_AY, _D_DELTA, _LN_CF, _LN_CR, _LN_MU, _E_W, _G_Y = (int(s) for s in Fs)
+_VX, _VY, _PSI, _B_R, _B_AX, _B_AY, _D_DELTA, _LN_CF, _LN_CR, _LN_MU, _E_W, _G_Y, _B_MAG = (int(s) for s in Fs)
 
 
 # ------------------------------------------------------------------------------ the models
@@ -160,6 +175,13 @@ def gnss_model(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     H[0, _VX], H[0, _VY], H[0, _PSI] = c, -s, -vx * s - vy * c
     H[1, _VX], H[1, _VY], H[1, _PSI] = s, c, vx * c - vy * s
     return np.array([vx * c - vy * s, vx * s + vy * c]), H
+
+
+def magnetometer_model(x: np.ndarray) -> tuple[float, np.ndarray]:
+    """The magnetometer's heading ``psi + b_mag`` [rad] and its Jacobian row."""
+    h = np.zeros(len(x))
+    h[_PSI] = h[_B_MAG] = 1.0
+    return x.item(_PSI) + x.item(_B_MAG), h
 
 
 def wheel_model(x: np.ndarray) -> tuple[float, np.ndarray]:
@@ -255,7 +277,7 @@ def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tup
     """
     r_m, delta, fyf, fyr, fzf, fzr, fxf, fxr = inp
     l_f, l_r, c_f, c_r, c_f_lo, c_r_lo, mu_lo, m_f, m_r = geometry
-    vx, vy, _, b_r, _, _, d_delta, ln_cf, ln_cr, ln_mu, _, _ = x.tolist()          # Fs order
+    vx, vy, _, b_r, _, _, d_delta, ln_cf, ln_cr, ln_mu = x[:_E_W].tolist()          # Fs order
     mu = math.exp(ln_mu)
     r = r_m - b_r
     n = len(x)
@@ -359,6 +381,27 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                                     "from its sample to now through the filter's steps (Larsen 1998, two thirds "
                                     "of the cost); false: re-run the filter from the fix's sample (measurement "
                                     "shifting)")
+    # magnetometer
+    use_magnetometer: bool = param(False, "Dimensionless", "Update the heading with the magnetometer's (mag_x, "
+                                   "mag_y, mag_z, calibrated: hard and soft iron removed, normalised to the "
+                                   "undisturbed field) whenever the GNSS has initialised it; false: ignore the "
+                                   "magnetometer")
+    sigma_mag: float = param(0.02, "MagneticFluxRatio", "Magnetometer noise per axis (normalised field)", gt=0, le=1)
+    mag_declination: float = param(geomagnetic.DECLINATION, "Angle", "Declination: magnetic north east of true "
+                                   "north", ge=-math.pi, le=math.pi)
+    mag_offset_std0: float = param(0.05, "Angle", "Initial uncertainty of the magnetometer's heading offset (a "
+                                   "declination or iron error), calibrated with GNSS", gt=0, le=3.2)
+    mag_offset_walk: float = param(1e-4, "Angle", "Random walk of the magnetometer's heading offset per sqrt(s) "
+                                   "(iron that changes with the load)", gt=0, le=1)
+    mag_norm_gate: float = param(0.1, "MagneticFluxRatio", "Field-norm deviation from unity beyond which a reading "
+                                 "is taken as disturbed and not used", gt=0, le=10)
+    mag_tilt_std: float = param(0.003, "Angle", "Tilt error of the magnetometer's tilt compensation besides the "
+                                "roll model's (pitch, the bank estimate)", ge=0, le=0.5)
+    mag_roll_error: float = param(0.2, "Dimensionless", "Relative error of the roll model's roll in the tilt "
+                                  "compensation", ge=0, le=10)
+    mag_tilt_correlation_time: float = param(1.0, "Time", "Correlation time of the tilt error: its heading "
+                                             "variance is multiplied by it over the readings' interval", ge=0,
+                                             le=100)
     heading_reset: float = param(0.2, "Angle", "Heading std above which the heading is re-initialised from the "
                                  "course at the next fix", gt=0, le=3.2)
     course_speed: float = param(3.0, "Velocity", "Speed below which a fix does not initialise the heading",
@@ -400,7 +443,7 @@ class SideslipFusion(Estimator):
 
     config_class = SideslipFusionConfig
     input_names = ("ax_m", "ay_m", "yaw_rate_m", "delta_m", *WHEEL_SPEEDS_M, "gps_ve", "gps_vn", "gps_fresh",
-                   "gps_valid")
+                   "gps_valid", "mag_x", "mag_y", "mag_z")
     extra_outputs = ("yaw_hat", "bias_yaw_rate_hat", "bias_ax_hat", "bias_ay_hat", "steer_offset_hat", "Cf_hat",
                      "Cr_hat", "mu_hat", "friction_utilisation", "gps_delay_hat", "slide_probability")
     needs = ("the vehicle's geometry and mass roughly right; GNSS velocity for the best accuracy (without it the "
@@ -418,14 +461,14 @@ class SideslipFusion(Estimator):
         x0[Fs.LN_MU] = math.log(cfg.mu0)
         p0 = np.array([1.0, 1.0, 10.0, cfg.gyro_offset_std0, cfg.accel_offset_std0, cfg.accel_offset_std0,
                        cfg.steer_offset_std0, cfg.stiffness_std0, cfg.stiffness_std0, cfg.mu_std0,
-                       cfg.radius_error_std0, cfg.bank_std0]) ** 2
+                       cfg.radius_error_std0, cfg.bank_std0, cfg.mag_offset_std0]) ** 2
         self._p_cap = p0.copy()
         self._p_cap[:3] = np.inf                               # velocity and heading: no cap
         q = np.array([cfg.sigma_accel * ts, cfg.sigma_accel * ts, cfg.sigma_gyro * ts,
                       cfg.gyro_offset_walk * math.sqrt(ts), cfg.accel_offset_walk * math.sqrt(ts),
                       cfg.accel_offset_walk * math.sqrt(ts), 1e-6 * math.sqrt(ts), cfg.stiffness_walk * math.sqrt(ts),
                       cfg.stiffness_walk * math.sqrt(ts), cfg.mu_walk * math.sqrt(ts), 1e-5 * math.sqrt(ts),
-                      cfg.bank_walk * math.sqrt(ts)]) ** 2
+                      cfg.bank_walk * math.sqrt(ts), cfg.mag_offset_walk * math.sqrt(ts)]) ** 2
         self._q = q
         self._robust = cfg.formulation == EKF
         # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
@@ -460,6 +503,7 @@ class SideslipFusion(Estimator):
         self._ln_mu_floor = math.log(cfg.mu_min)
         self._x_rate = 0.0
         self._row_mu = _EYE[_LN_MU]
+        self._mag_last, self._mag_age = None, 0
         self._started = False
         self._extra_values = self._compute_extras()
 
@@ -682,6 +726,33 @@ class SideslipFusion(Estimator):
             P[Fs.PSI, Fs.PSI] = 0.05 ** 2 + P[Fs.VY, Fs.VY] / max(x[Fs.VX] ** 2, 1.0)
         self._heading_known = True
 
+    # ---------------------------------------------------------------- magnetometer
+    def _magnetometer_update(self, mag: tuple) -> None:
+        """The heading from a new, undisturbed magnetometer reading (module docstring), to every filter."""
+        cfg = self.config
+        self._mag_age += 1
+        if mag == self._mag_last:                       # a held sample is not a new reading
+            return
+        self._mag_last = mag
+        age, self._mag_age = self._mag_age, 0
+        if not abs(math.sqrt(mag[0] ** 2 + mag[1] ** 2 + mag[2] ** 2) - 1.0) <= cfg.mag_norm_gate:
+            return                                      # disturbed (or not a number)
+        # the body's tilt: the roll model's roll on the road plus the road's bank (the state's gravity term)
+        phi = self._roll.phi
+        bank = math.asin(max(-0.5, min(float(self._x[_G_Y]) / GRAVITY, 0.5)))
+        psi_m, dpsi_dtilt, h2 = tilt_compensated_heading(mag, phi + bank, cfg.mag_declination)
+        if h2 < 1e-4:                                   # no horizontal field to point with
+            return
+        # the tilt's error: the roll model's, the bank estimate's (its state's std) and the rest (pitch)
+        tilt_var = (cfg.mag_tilt_std + cfg.mag_roll_error * abs(phi)) ** 2 + self._P.item(_G_Y, _G_Y) / GRAVITY ** 2
+        # it lasts (a roll model wrong in a turn, a bank): its share counts once per correlation time
+        r = cfg.sigma_mag ** 2 / h2 + dpsi_dtilt ** 2 * tilt_var * max(cfg.mag_tilt_correlation_time
+                                                                        / (age * self.Ts), 1.0)
+        for m in self._modes:
+            h, row = magnetometer_model(m.kf.x)
+            m.kf.update_scalar(math.remainder(psi_m - h, 2.0 * math.pi), row, r)
+        self._combine()
+
     # ---------------------------------------------------------------- the sample
     def _sample(self, u):
         I, cfg = self.In, self.config
@@ -727,6 +798,9 @@ class SideslipFusion(Estimator):
             else:
                 self._gps_nis.add(self._apply_fix(ve, vn, math.hypot(inp[0], inp[1])), 2)
             self._combine()
+            x = self._x
+        if cfg.use_magnetometer and self._heading_known:
+            self._magnetometer_update((u[I.MAG_X], u[I.MAG_Y], u[I.MAG_Z]))
             x = self._x
         x[_PSI] = math.remainder(x[_PSI], 2.0 * math.pi)
         for m in self._modes:
