@@ -70,8 +70,8 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   not ask for it) takes the model error's utilisation at a friction that many of its std below the estimate
   (development set, friction drop 0.28 -> 0.23 deg, the error 2.0 -> 1.6 times its std; ``docs/estimator.md``).
 
-State: :class:`Fs` (13).  Two formulations (``formulation``), compared on the benchmark
-(``docs/estimator.md``):
+State: :class:`Fs` (13; the first 12 without the magnetometer).  Two formulations (``formulation``),
+compared on the benchmark (``docs/estimator.md``):
 
 * ``0`` **EKF**: one extended Kalman filter on the model above;
 * ``1`` **IMM**: an interacting multiple model of two such filters, one trusting the tire model
@@ -129,11 +129,14 @@ EKF, IMM = 0, 1
 class Fs(IntEnum):
     """State of :class:`SideslipFusion`: ``G_Y`` is the road bank's gravity term ``g sin(bank)`` in the lateral
     accelerometer, which moves the car but is not a tire force (``B_AY``, the sensor's offset, is in both);
-    ``B_MAG`` the magnetometer's heading offset (a declination or iron error)."""
+    ``B_MAG`` the magnetometer's heading offset (a declination or iron error; without ``use_magnetometer`` the
+    filter has the first 12 only)."""
     VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W, G_Y, B_MAG = range(13)
 
 
-_EYE = np.eye(len(Fs))
+# identities by state size: without the magnetometer the filter leaves out its offset, the last state (it would only
+# cost time: nothing observes it)
+_EYES = {n: np.eye(n) for n in (len(Fs) - 1, len(Fs))}
 # plain-int copies of the indices the per-sample functions use: indexing with an IntEnum member costs four times more
 _VX, _VY, _PSI, _B_R, _B_AX, _B_AY, _D_DELTA, _LN_CF, _LN_CR, _LN_MU, _E_W, _G_Y, _B_MAG = (int(s) for s in Fs)
 
@@ -160,7 +163,7 @@ def kinematic_step(x: np.ndarray, ax: float, ay: float, r_m: float, ts: float) -
     xp[_VX] = vx + ts * (ax - b_ax + r * vy)
     xp[_VY] = vy + ts * (a_y - r * vx)
     xp[_PSI] = psi + ts * r
-    F = _EYE.copy()                                 # np.eye costs three times a copy
+    F = _EYES[len(x)].copy()                        # np.eye costs three times a copy
     F[_VX, _VY], F[_VX, _B_R], F[_VX, _B_AX] = ts * r, -ts * vy, -ts
     F[_VY, _VX], F[_VY, _B_R], F[_VY, _B_AY], F[_VY, _G_Y] = -ts * r, ts * vx, -ts, -ts
     F[_PSI, _B_R] = -ts
@@ -457,18 +460,19 @@ class SideslipFusion(Estimator):
         self._fz_static = (v.m * GRAVITY * v.l_r / v.l, v.m * GRAVITY * v.l_f / v.l)
         self._front_undriven = v.drive_split_front <= 0.0
         self._roll = RollCompensator(v, ts)
-        x0 = np.zeros(len(Fs))
+        n = len(Fs) if cfg.use_magnetometer else _B_MAG
+        x0 = np.zeros(n)
         x0[Fs.LN_MU] = math.log(cfg.mu0)
         p0 = np.array([1.0, 1.0, 10.0, cfg.gyro_offset_std0, cfg.accel_offset_std0, cfg.accel_offset_std0,
                        cfg.steer_offset_std0, cfg.stiffness_std0, cfg.stiffness_std0, cfg.mu_std0,
-                       cfg.radius_error_std0, cfg.bank_std0, cfg.mag_offset_std0]) ** 2
+                       cfg.radius_error_std0, cfg.bank_std0, cfg.mag_offset_std0][:n]) ** 2
         self._p_cap = p0.copy()
         self._p_cap[:3] = np.inf                               # velocity and heading: no cap
         q = np.array([cfg.sigma_accel * ts, cfg.sigma_accel * ts, cfg.sigma_gyro * ts,
                       cfg.gyro_offset_walk * math.sqrt(ts), cfg.accel_offset_walk * math.sqrt(ts),
                       cfg.accel_offset_walk * math.sqrt(ts), 1e-6 * math.sqrt(ts), cfg.stiffness_walk * math.sqrt(ts),
                       cfg.stiffness_walk * math.sqrt(ts), cfg.mu_walk * math.sqrt(ts), 1e-5 * math.sqrt(ts),
-                      cfg.bank_walk * math.sqrt(ts), cfg.mag_offset_walk * math.sqrt(ts)]) ** 2
+                      cfg.bank_walk * math.sqrt(ts), cfg.mag_offset_walk * math.sqrt(ts)][:n]) ** 2
         self._q = q
         self._robust = cfg.formulation == EKF
         # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
@@ -502,7 +506,7 @@ class SideslipFusion(Estimator):
         self._r_dot = self._accel = 0.0
         self._ln_mu_floor = math.log(cfg.mu_min)
         self._x_rate = 0.0
-        self._row_mu = _EYE[_LN_MU]
+        self._row_mu = _EYES[n][_LN_MU]
         self._mag_last, self._mag_age = None, 0
         self._started = False
         self._extra_values = self._compute_extras()
@@ -544,7 +548,7 @@ class SideslipFusion(Estimator):
         kf = mode.kf
         xp, F = kinematic_step(kf.x, ax, ay, r_m, ts)
         # a parameter whose variance has reached its prior's gets no more process noise (nothing shows it)
-        q = self._q * (kf.P.ravel()[::len(Fs) + 1] < self._p_cap)      # (the diagonal's view)
+        q = self._q * (kf.P.ravel()[::len(kf.x) + 1] < self._p_cap)      # (the diagonal's view)
         q[_VY] += mode.q_vy
         kf.predict(xp, F, q)
         # the undriven wheels: their slip grows with the longitudinal acceleration
