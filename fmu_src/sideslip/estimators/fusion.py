@@ -36,9 +36,10 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   ``asin(g_y / g)``.  Its noise is the reading's over the horizontal field plus the tilt's error (``mag_tilt_std``,
   ``mag_roll_error`` of the roll, the bank state's std) times ``d psi / d tilt`` (up to ``tan(inclination)``: the
   site's inclination itself is not needed), the latter counted once per ``mag_tilt_correlation_time``.  The
-  readings are calibrated (hard and soft iron removed, ``mag_declination`` set): a heading error of the
-  magnetometer goes into the sideslip one to one, which is why it is off by default.  It does not enter the IMM's
-  likelihoods (it says nothing about grip or slide).
+  readings are calibrated (hard and soft iron removed, ``mag_declination`` set); what heading offset remains is the
+  state ``B_MAG`` (``mag_offset_std0``), which GNSS calibrates where the tire model fixes the sideslip.  Off by
+  default: the training set is flat with it (``docs/estimator.md``).  It does not enter the IMM's likelihoods (it
+  says nothing about grip or slide).
 * **Wheel speeds** (:func:`wheel_model`): the undriven axle's mean speed is ``(1 + e_w) v_x``
   (``e_w`` the rolling-radius error, a state); its noise grows with the longitudinal friction
   utilisation squared and a Huber gate caps its weight (a braked wheel slips, a locked one slides).
