@@ -7,8 +7,9 @@ import pytest
 
 from sideslip.bicycle import axle_forces
 from sideslip.estimators import SideslipFusionConfig
-from sideslip.estimators.fusion import (CAPACITY_MIN, Fs, axle_pseudo, fiala_slip, gnss_model, kinematic_step,
-                                       lateral_capacity, magnetometer_model, wheel_model)
+from sideslip.estimators.fusion import (CAPACITY_MIN, Fs, axle_pseudo, fiala_slip, gnss_delayed_model, gnss_model,
+                                       kinematic_step, lateral_capacity, magnetometer_model, track_acceleration,
+                                       wheel_model)
 from sideslip.estimators.yoon2014 import magnetometer_h
 from sideslip.geomagnetic import earth_field, tilt_compensated_heading
 from sideslip.recording import replay
@@ -27,6 +28,7 @@ def _observability_rank(gnss: bool, turning: bool, magnetometer: bool = True) ->
                 v.m * v.l_r / v.l, v.m * v.l_f / v.l)
     x = np.zeros(len(Fs))
     x[Fs.VX], x[Fs.B_R], x[Fs.B_AX], x[Fs.B_AY], x[Fs.D_DELTA], x[Fs.G_Y] = 12.0, 0.005, 0.1, -0.1, 0.002, 0.5
+    x[Fs.D_GNSS] = 0.1
     phi = np.eye(len(Fs))
     rows = []
     r_prev = 0.0
@@ -43,8 +45,8 @@ def _observability_rank(gnss: bool, turning: bool, magnetometer: bool = True) ->
         for h, row, *_ in axle_pseudo(x, (r + x[Fs.B_R], delta, fyf, fyr, *fz, 0.0, 0.0), geometry, 0.95):
             rows.append(row.dot(phi))
         rows.append(wheel_model(x)[1].dot(phi))
-        if gnss and k % 10 == 0:
-            rows.extend(gnss_model(x)[1].dot(phi))
+        if gnss and k % 10 == 0:                   # the fix of D ago, on the sample D ago (the delay's column)
+            rows.extend(gnss_delayed_model(x, ax + x[Fs.B_AX], ay + x[Fs.B_AY] + x[Fs.G_Y], x[Fs.D_GNSS])[1].dot(phi))
         if magnetometer and k % 2 == 0:
             rows.append(magnetometer_model(x)[1].dot(phi))
         x, F = kinematic_step(x, ax + x[Fs.B_AX], ay + x[Fs.B_AY] + x[Fs.G_Y], r + x[Fs.B_R], ts)
@@ -61,11 +63,24 @@ def test_offset_states_are_observable_with_gnss_on_a_turning_drive():
     assert rank == len(Fs)
 
 
-def test_without_gnss_only_the_heading_is_unobservable():
+def test_without_gnss_only_the_heading_and_the_gnss_delay_are_unobservable():
     rank, null = _observability_rank(gnss=False, turning=True)
-    assert rank == len(Fs) - 1
-    # the one direction no in-vehicle sensor sees: the heading, and the magnetometer's offset with it
-    assert abs(null[Fs.PSI] + null[Fs.B_MAG]) < 1e-6 and abs(null[Fs.PSI]) > 0.7
+    assert rank == len(Fs) - 2
+    # what no in-vehicle sensor sees: the heading (the magnetometer's offset with it) and the GNSS delay
+    assert abs(null[Fs.PSI] + null[Fs.B_MAG]) < 1e-6
+    assert null[Fs.PSI] ** 2 + null[Fs.B_MAG] ** 2 + null[Fs.D_GNSS] ** 2 == pytest.approx(1.0)
+
+
+def test_the_delay_enters_by_the_acceleration_across_the_track_only():
+    x = np.zeros(len(Fs))
+    x[Fs.VX], x[Fs.PSI], x[Fs.D_GNSS] = 10.0, 0.5, 0.12
+    c, s = math.cos(0.5), math.sin(0.5)
+    a_cross, track, along = track_acceleration(x, 2.0, 3.0, (10.0 * c, 10.0 * s))
+    assert along == pytest.approx(2.0) and tuple(track) == pytest.approx((c, s))
+    assert tuple(a_cross) == pytest.approx((-3.0 * s, 3.0 * c))          # the lateral 3 m/s2, east and north
+    h, H, _, _ = gnss_delayed_model(x, 2.0, 3.0, 0.1)                     # a fix 0.02 s older than the sample
+    assert tuple(h) == pytest.approx((10.0 * c + 0.06 * s, 10.0 * s - 0.06 * c))
+    assert tuple(H[:, Fs.D_GNSS]) == pytest.approx((3.0 * s, -3.0 * c))
 
 
 def test_without_a_magnetometer_only_its_offset_is_unobservable():
@@ -182,6 +197,20 @@ def test_delayed_fixes_extrapolated_or_rerun_give_the_same_estimate(slalom):
     assert m["rms"] < 0.1 and m["nees"] < 1.5
 
 
+def test_the_delay_state_finds_a_receiver_delay_other_than_its_prior():
+    """A receiver 0.2 s late against the prior's 0.1 s, braking in a turn on snow: the course's changes never show
+    the delay sharply enough to the identifier apart from the filter, which keeps 0.1 s (measured: 0.41 deg RMS);
+    as a state of the filter it is found while the car turns (0.225 s, 0.21 deg)."""
+    case = B.Case("bench_train_bit_sonata_snow", "sensors+mismatch", 0)
+    s = B.setup(case)
+    s.sensors["gps_delay"] = 0.2
+    rec = B.record(case.scenario, s.sensors, s.plant.get("tire_model", 0))
+    runs = [_run(s, rec, delay_state=on)[1] for on in (True, False)]
+    state, apart = (B.row_metrics(rec, r["beta_hat"], r["beta_hat_std"], r["valid"]) for r in runs)
+    assert runs[0]["gps_delay_hat"][-1] == pytest.approx(0.2, abs=0.04)
+    assert state["rms"] < 0.7 * apart["rms"] and state["coverage95"] > 0.95 and state["off_while_valid"] == 0.0
+
+
 def test_a_road_bank_is_a_state_of_its_own_not_a_tire_force():
     """On a banked road the accelerometer reads the tires' force, a_y + g sin(bank): taking the bank for a sensor
     offset puts it into the tire forces (measured: 0.60 deg RMS, 5 % within 1.96 std, against 0.11 deg, 99.7 %)."""
@@ -280,11 +309,14 @@ def test_a_magnetometer_not_wired_or_disturbed_is_ignored(slalom):
     signals["mag_x"][::7] = 2.0                                           # a disturbance, twice the field
     unwired = B.Recording(rec.time, signals, rec.reference, "no magnetometer")
     _, on = _run(setup, unwired, use_magnetometer=True)
-    assert np.array_equal(off["beta_hat"], on["beta_hat"]) and np.array_equal(off["beta_hat_std"], on["beta_hat_std"])
+    # equal but for rounding: the offset state lengthens the vectors, and BLAS sums them in another order (2e-17 rad)
+    for name in ("beta_hat", "beta_hat_std"):
+        assert np.allclose(off[name], on[name], rtol=0.0, atol=1e-12)
+    assert np.array_equal(off["valid"], on["valid"])
 
 
 # the benchmark's test set under sensors+mismatch (seed 0; its two shortest scenarios, both on low friction):
-# RMS [deg] pinned with a margin over the measured (0.044, 0.114, 0.653, 0.577)
+# RMS [deg] pinned with a margin over the measured (0.055, 0.115, 0.637, 0.577)
 PINNED = {("bench_bit_suv_mu05", "SideslipFusion/EKF"): 0.10,
           ("bench_bit_suv_mu05", "SideslipFusion/in-vehicle"): 0.25,
           ("bench_jturn_coms_ice", "SideslipFusion/EKF"): 0.7,

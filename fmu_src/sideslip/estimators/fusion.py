@@ -22,11 +22,17 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   the correction is carried to now through the filter's steps since (Larsen 1998,
   :class:`~sideslip.estimators.kalman.DelayedMeasurements`; re-running the filter from the fix's
   sample, as Yoon 2014 Fig. 7 does, costs 1.5 times as much for the same accuracy on the
-  training set, ``docs/estimator.md``).  The delay is identified while turning
-  (:class:`~sideslip.estimators.delay.GpsLatency`); its uncertainty enters the fix's noise as the
-  acceleration times the delay's std.  GNSS makes the heading, the gyro offset, the accelerometer
-  offsets, the rolling radius and the tire parameters observable whenever the car accelerates or
-  turns.
+  training set, ``docs/estimator.md``).  The delay ``D`` is a state (``delay_state``, prior
+  ``gps_latency`` +- ``gps_latency_std``): the fix is compared with the sample ``round(D / Ts)`` ago and
+  linearised in the rest, ``v(t - D) = v_s - (D - lag Ts) a_cross`` (:func:`gnss_delayed_model`), where only the
+  acceleration across the track enters (along it a delay is a speed error that the rolling radius and the
+  accelerometer's offset explain as well; the delay's error along the track is the fix's noise, ``a_along`` times
+  the state's std).  While the course turns the filter finds the delay together with the heading and the sideslip;
+  in a steady turn the three share what the fixes cannot tell apart, and the covariance says so.  Without
+  ``delay_state`` the delay is identified apart from the filter from the course's changes
+  (:class:`~sideslip.estimators.delay.GpsLatency`) and its uncertainty enters the fix's noise as the acceleration
+  times the delay's std.  GNSS makes the heading, the gyro offset, the accelerometer offsets, the rolling radius
+  and the tire parameters observable whenever the car accelerates or turns.
 * **Magnetometer** (``use_magnetometer``, :meth:`SideslipFusion._magnetometer_update`): GNSS gives the course,
   heading plus sideslip; without a heading of its own the filter splits the two by the tire model, and in a long
   slide or a steady turn the tire model's error drifts the gyro offset and with it the heading (development set,
@@ -71,7 +77,8 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   not ask for it) takes the model error's utilisation at a friction that many of its std below the estimate
   (development set, friction drop 0.28 -> 0.23 deg, the error 2.0 -> 1.6 times its std; ``docs/estimator.md``).
 
-State: :class:`Fs` (13; the first 12 without the magnetometer).  Two formulations (``formulation``),
+State: :class:`Fs` (14; the first 13 without the magnetometer, 12 without the delay state either).  Two
+formulations (``formulation``),
 compared on the benchmark (``docs/estimator.md``):
 
 * ``0`` **EKF**: one extended Kalman filter on the model above;
@@ -114,14 +121,15 @@ from ..geomagnetic import tilt_compensated_heading
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
 from .base import Estimator, EstimatorConfig, beta_std, input_enum, lowpass
-from .delay import GpsLatency
+from .delay import DelayLine, GpsLatency
 from .hardening import (GpsLatencyConfig, InnovationMonitor, ValidityGate, nis_limit_param, valid_hold_param,
                         valid_std_max_param)
 from .kalman import DelayedMeasurements, KalmanFilter
 from .roll import RollCompensator
 
 __all__ = ["SideslipFusionConfig", "SideslipFusion", "Fs", "EKF", "IMM", "kinematic_step", "gnss_model",
-           "wheel_model", "magnetometer_model", "axle_pseudo", "axle_stiffness", "fiala_slip", "lateral_capacity"]
+           "wheel_model", "magnetometer_model", "track_acceleration",
+           "gnss_delayed_model", "axle_pseudo", "axle_stiffness", "fiala_slip", "lateral_capacity"]
 
 EKF, IMM = 0, 1
 """Values of the ``formulation`` parameter."""
@@ -130,16 +138,16 @@ EKF, IMM = 0, 1
 class Fs(IntEnum):
     """State of :class:`SideslipFusion`: ``G_Y`` is the road bank's gravity term ``g sin(bank)`` in the lateral
     accelerometer, which moves the car but is not a tire force (``B_AY``, the sensor's offset, is in both);
-    ``B_MAG`` the magnetometer's heading offset (a declination or iron error; without ``use_magnetometer`` the
-    filter has the first 12 only)."""
-    VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W, G_Y, B_MAG = range(13)
+    ``D_GNSS`` the GNSS delay [s] (``delay_state``); ``B_MAG`` the magnetometer's heading offset (a declination or
+    iron error).  The filter has the first 12, 13 with ``delay_state``, all 14 with ``use_magnetometer``."""
+    VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W, G_Y, D_GNSS, B_MAG = range(14)
 
 
-# identities by state size: without the magnetometer the filter leaves out its offset, the last state (it would only
-# cost time: nothing observes it)
-_EYES = {n: np.eye(n) for n in (len(Fs) - 1, len(Fs))}
+# identities by state size: the filter leaves out the states of what it does not use, last the magnetometer's offset
+# (they would only cost time: nothing observes them)
+_EYES = {n: np.eye(n) for n in (len(Fs) - 2, len(Fs) - 1, len(Fs))}
 # plain-int copies of the indices the per-sample functions use: indexing with an IntEnum member costs four times more
-_VX, _VY, _PSI, _B_R, _B_AX, _B_AY, _D_DELTA, _LN_CF, _LN_CR, _LN_MU, _E_W, _G_Y, _B_MAG = (int(s) for s in Fs)
+_VX, _VY, _PSI, _B_R, _B_AX, _B_AY, _D_DELTA, _LN_CF, _LN_CR, _LN_MU, _E_W, _G_Y, _D_GNSS, _B_MAG = (int(s) for s in Fs)
 
 
 # ------------------------------------------------------------------------------ the models
@@ -179,6 +187,54 @@ def gnss_model(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     H[0, _VX], H[0, _VY], H[0, _PSI] = c, -s, -vx * s - vy * c
     H[1, _VX], H[1, _VY], H[1, _PSI] = s, c, vx * c - vy * s
     return np.array([vx * c - vy * s, vx * s + vy * c]), H
+
+
+def track_acceleration(x: np.ndarray, ax: float, ay: float, v_ne) -> tuple[np.ndarray, np.ndarray, float]:
+    """The state's horizontal acceleration ``R(psi) (a_x - b_ax, a_y - b_ay - g_y)`` (east, north) split along and
+    across the track of the velocity ``v_ne`` (east, north).
+
+    Returns
+    -------
+    tuple
+        The acceleration across the track (east, north) [m/s2], the track's unit vector and the acceleration along
+        it [m/s2].
+    """
+    c, s = math.cos(x.item(_PSI)), math.sin(x.item(_PSI))
+    a_x = ax - x.item(_B_AX)
+    a_y = ay - x.item(_B_AY) - x.item(_G_Y)
+    a = np.array([a_x * c - a_y * s, a_x * s + a_y * c])
+    track = np.asarray(v_ne, dtype=float) / max(math.hypot(v_ne[0], v_ne[1]), 0.1)
+    along = float(a.dot(track))
+    return a - along * track, track, along
+
+
+def gnss_delayed_model(x: np.ndarray, ax: float, ay: float, age: float) -> tuple:
+    """A fix of the delay state's ``D`` ago against the state of a sample ``age`` ago: ``v(t - D) = v_s - (D - age)
+    a_cross`` and its Jacobian.
+
+    Only the acceleration across the track (the course turning, :func:`track_acceleration`) enters: along the track
+    a delay shows as a speed error, which the rolling radius and the accelerometer's offset explain as well; the
+    delay's error along the track is the caller's noise.  (With the whole acceleration in the Jacobian, the delay of
+    a drive that accelerates from its start ran to its 0.5 s bound within 1.7 s and the estimate diverged.)
+
+    Parameters
+    ----------
+    x : ndarray
+        State of the sample (:class:`Fs`, with ``D_GNSS``).
+    ax, ay : float
+        The sample's measured longitudinal and roll-compensated lateral acceleration [m/s2].
+    age : float
+        Age of the sample [s].
+
+    Returns
+    -------
+    tuple
+        ``h`` (east, north) [m/s], ``H`` (2, n), the track's unit vector and the acceleration along it [m/s2].
+    """
+    h, H = gnss_model(x)
+    a_cross, track, along = track_acceleration(x, ax, ay, h)
+    H[:, _D_GNSS] = -a_cross
+    return h - (x.item(_D_GNSS) - age) * a_cross, H, track, along
 
 
 def magnetometer_model(x: np.ndarray) -> tuple[float, np.ndarray]:
@@ -385,6 +441,10 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                                     "from its sample to now through the filter's steps (Larsen 1998, two thirds "
                                     "of the cost); false: re-run the filter from the fix's sample (measurement "
                                     "shifting)")
+    delay_state: bool = param(True, "Dimensionless", "Estimate the GNSS delay as a state of the filter from the "
+                              "fixes' course while it turns (gps_latency +- gps_latency_std its prior); false: "
+                              "identify it apart from the filter from the course's changes (identify_delay)")
+    delay_walk: float = param(1e-4, "Time", "Random walk of the GNSS delay state per sqrt(s)", gt=0, le=1)
     # magnetometer
     use_magnetometer: bool = param(False, "Dimensionless", "Update the heading with the magnetometer's (mag_x, "
                                    "mag_y, mag_z, calibrated: hard and soft iron removed, normalised to the "
@@ -461,19 +521,22 @@ class SideslipFusion(Estimator):
         self._fz_static = (v.m * GRAVITY * v.l_r / v.l, v.m * GRAVITY * v.l_f / v.l)
         self._front_undriven = v.drive_split_front <= 0.0
         self._roll = RollCompensator(v, ts)
-        n = len(Fs) if cfg.use_magnetometer else _B_MAG
+        n = len(Fs) if cfg.use_magnetometer else _B_MAG if cfg.delay_state else _D_GNSS
         x0 = np.zeros(n)
+        if cfg.delay_state:
+            x0[_D_GNSS] = cfg.gps_latency
         x0[Fs.LN_MU] = math.log(cfg.mu0)
         p0 = np.array([1.0, 1.0, 10.0, cfg.gyro_offset_std0, cfg.accel_offset_std0, cfg.accel_offset_std0,
                        cfg.steer_offset_std0, cfg.stiffness_std0, cfg.stiffness_std0, cfg.mu_std0,
-                       cfg.radius_error_std0, cfg.bank_std0, cfg.mag_offset_std0][:n]) ** 2
+                       cfg.radius_error_std0, cfg.bank_std0, cfg.gps_latency_std, cfg.mag_offset_std0][:n]) ** 2
         self._p_cap = p0.copy()
         self._p_cap[:3] = np.inf                               # velocity and heading: no cap
         q = np.array([cfg.sigma_accel * ts, cfg.sigma_accel * ts, cfg.sigma_gyro * ts,
                       cfg.gyro_offset_walk * math.sqrt(ts), cfg.accel_offset_walk * math.sqrt(ts),
                       cfg.accel_offset_walk * math.sqrt(ts), 1e-6 * math.sqrt(ts), cfg.stiffness_walk * math.sqrt(ts),
                       cfg.stiffness_walk * math.sqrt(ts), cfg.mu_walk * math.sqrt(ts), 1e-5 * math.sqrt(ts),
-                      cfg.bank_walk * math.sqrt(ts), cfg.mag_offset_walk * math.sqrt(ts)][:n]) ** 2
+                      cfg.bank_walk * math.sqrt(ts), cfg.delay_walk * math.sqrt(ts) if cfg.delay_state else 0.0,
+                      cfg.mag_offset_walk * math.sqrt(ts)][:n]) ** 2
         self._q = q
         self._robust = cfg.formulation == EKF
         # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
@@ -484,6 +547,11 @@ class SideslipFusion(Estimator):
                         (_LN_MU, math.log(cfg.mu_min), math.log(cfg.mu_max)))
         window = max(int(round(cfg.adapt_window / ts)), 1)
         history = int(math.ceil(cfg.max_delay / ts)) + 2
+        self._max_lag = history - 2
+        # the delay state: bounded by the history, and the body's accelerations of its samples for its Jacobian
+        self._acc_line = DelayLine(history, 2) if cfg.delay_state else None
+        if cfg.delay_state:
+            self._bounds += ((_D_GNSS, 0.0, self._max_lag * ts),)
         # the samples a delayed fix needs: the filters' own (extrapolation) or the inputs and snapshots (re-run)
         self._history = None if cfg.fix_extrapolation else deque(maxlen=history)
         per_filter = history if cfg.fix_extrapolation else 0
@@ -499,7 +567,7 @@ class SideslipFusion(Estimator):
         self._modes = modes
         self._x, self._P = x0.copy(), np.diag(p0)              # the combined estimate
         self._heading_known = False
-        self._latency = GpsLatency(ts, cfg.gps_latency, cfg.gps_latency_std, cfg.identify_delay,
+        self._latency = GpsLatency(ts, cfg.gps_latency, cfg.gps_latency_std, cfg.identify_delay and not cfg.delay_state,
                                    min(cfg.max_delay, 0.5))
         self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
         self._gate = ValidityGate(cfg.valid_std_max, cfg.valid_hold)
@@ -666,19 +734,36 @@ class SideslipFusion(Estimator):
         self._x, self._P = x, P
 
     # ---------------------------------------------------------------- GNSS
-    def _gnss_update(self, ve: float, vn: float, accel: float, lag: int = 0) -> float:
+    def _gnss_update(self, ve: float, vn: float, accel: float, lag: int = 0, acc=None,
+                     at: float = 0.0) -> float | None:
         """Apply a fix taken ``lag`` samples ago to every filter (extrapolated to now, :class:`DelayedMeasurements`;
-        at the current sample without them); returns the (probability-weighted) NIS."""
+        at the current sample without them); returns the (probability-weighted) NIS, None if the fix was skipped.
+        With the delay state, ``acc`` is the body's measured ``(a_x, a_y)`` of the sample the fix is compared with
+        and ``at`` its age [s]."""
         cfg = self.config
-        noise = cfg.sigma_gnss ** 2 + (accel * self._latency.std) ** 2
+        # the delay's uncertainty: noise of the acceleration's size, or (delay state) the state's
+        noise = cfg.sigma_gnss ** 2 + (0.0 if acc is not None else (accel * self._latency.std) ** 2)
         R = np.eye(2) * noise
         z = np.array([ve, vn])
-        nis_sum, logs = 0.0, []
+        models = []
         for m in self._modes:
             x_s, P_s = (m.kf.x, m.kf.P) if m.delayed is None else m.delayed.past(lag)
-            h, H = gnss_model(x_s)
-            S = H.dot(P_s).dot(H.T) + R
-            nis = m.kf.update(z - h, H, R) if m.delayed is None else m.delayed.update(lag, z - h, H, R)
+            try:
+                # the IMM's mixing moves its filters without their stored samples, whose covariance the corrections
+                # of later fixes can then leave indefinite: such a fix is skipped, not applied with a negative NIS
+                np.linalg.cholesky(P_s)
+            except np.linalg.LinAlgError:
+                return None
+            if acc is None:
+                h, H = gnss_model(x_s)
+                r_m = R
+            else:                                   # the delay's error along the track is noise (gnss_delayed_model)
+                h, H, track, along = gnss_delayed_model(x_s, acc[0], acc[1], at)
+                r_m = R + (along * along * P_s.item(_D_GNSS, _D_GNSS)) * np.outer(track, track)
+            models.append((h, H, r_m, H.dot(P_s).dot(H.T) + r_m))
+        nis_sum, logs = 0.0, []
+        for m, (h, H, r_m, S) in zip(self._modes, models):
+            nis = m.kf.update(z - h, H, r_m) if m.delayed is None else m.delayed.update(lag, z - h, H, r_m)
             self._bound(m.kf)
             nis_sum += nis
             logs.append(-0.5 * (nis + math.log(max(np.linalg.det(S), 1e-300))))
@@ -697,20 +782,24 @@ class SideslipFusion(Estimator):
             m.kf.x, m.kf.P, m.slip = x.copy(), P.copy(), slip
         self._prob = snap[-1].copy()
 
-    def _apply_fix(self, ve: float, vn: float, accel: float) -> float:
+    def _apply_fix(self, ve: float, vn: float, accel: float) -> float | None:
         """A fix taken ``delay`` ago, at its own sample (module docstring): extrapolated to now, or applied there
         and the filter re-run to now from the stored inputs."""
-        lag = self._latency.lag(self.Ts)
+        if self._acc_line is not None:
+            lag = min(max(int(round(float(self._x[_D_GNSS]) / self.Ts)), 0), self._max_lag)
+            acc = self._acc_line.delayed(lag)
+        else:
+            lag, acc = self._latency.lag(self.Ts), None
         hist = self._history
         if hist is None:
-            return self._gnss_update(ve, vn, accel, lag)
+            return self._gnss_update(ve, vn, accel, lag, acc, lag * self.Ts)
         if lag <= 0 or lag >= len(hist):
-            nis = self._gnss_update(ve, vn, accel)
+            nis = self._gnss_update(ve, vn, accel, 0, acc)
             hist[-1][2] = self._snapshot()
             return nis
         s = len(hist) - 1 - lag
         self._restore(hist[s][2])
-        nis = self._gnss_update(ve, vn, accel)
+        nis = self._gnss_update(ve, vn, accel, 0, acc, lag * self.Ts)
         hist[s][2] = self._snapshot()
         for j in range(s + 1, len(hist)):
             inp, vx_ref, _ = hist[j]
@@ -725,7 +814,7 @@ class SideslipFusion(Estimator):
             x, P = m.kf.x, m.kf.P
             beta = math.atan2(x[Fs.VY], max(x[Fs.VX], 0.1))
             # the course of the fix's time: the heading has turned by the yaw rate times the delay since
-            x[Fs.PSI] = math.remainder(course - beta + self._x_rate * self._latency.value, 2.0 * math.pi)
+            x[Fs.PSI] = math.remainder(course - beta + self._x_rate * self._delay(), 2.0 * math.pi)
             P[Fs.PSI, :] = 0.0
             P[:, Fs.PSI] = 0.0
             P[Fs.PSI, Fs.PSI] = 0.05 ** 2 + P[Fs.VY, Fs.VY] / max(x[Fs.VX] ** 2, 1.0)
@@ -772,6 +861,8 @@ class SideslipFusion(Estimator):
                 m.kf.P[Fs.VY, Fs.VY] = (0.05 * vw) ** 2
             self._started = True
         inp = self._inputs(u, vw)
+        if self._acc_line is not None:
+            self._acc_line.push(inp[:2])
         vx_ref = float(self._x[_VX])
         self._sample_all(inp, vx_ref)
         if self._history is None:
@@ -801,7 +892,9 @@ class SideslipFusion(Estimator):
                         self._history.clear()
                         self._history.append([inp, vx_ref, self._snapshot()])
             else:
-                self._gps_nis.add(self._apply_fix(ve, vn, math.hypot(inp[0], inp[1])), 2)
+                nis = self._apply_fix(ve, vn, math.hypot(inp[0], inp[1]))
+                if nis is not None:
+                    self._gps_nis.add(nis, 2)
             self._combine()
             x = self._x
         if cfg.use_magnetometer and self._heading_known:
@@ -822,6 +915,10 @@ class SideslipFusion(Estimator):
                       and (not gnss or self._gps_nis.consistent))
         self._extra_values = self._compute_extras()
 
+    def _delay(self) -> float:
+        """The GNSS delay in use [s]."""
+        return float(self._x[_D_GNSS]) if self.config.delay_state else self._latency.value
+
     def _extras(self) -> tuple:
         return self._extra_values
 
@@ -834,7 +931,7 @@ class SideslipFusion(Estimator):
         utilisation = sum(p * m.utilisation for p, m in zip(self._prob, self._modes))
         return (math.remainder(float(x[_PSI]), 2.0 * math.pi), float(x[_B_R]), float(x[_B_AX]),
                 float(x[_B_AY]), float(x[_D_DELTA]), c_f, c_r, mu, min(float(utilisation), 1.0),
-                self._latency.value, float(self._prob[1]) if len(self._prob) > 1 else 0.0)
+                self._delay(), float(self._prob[1]) if len(self._prob) > 1 else 0.0)
 
     def _pack(self) -> tuple:
         return self._gate(self, super()._pack())
