@@ -7,9 +7,8 @@ import pytest
 
 from sideslip.bicycle import axle_forces
 from sideslip.estimators import SideslipFusionConfig
-from sideslip.estimators.fusion import (CAPACITY_MIN, Fs, axle_pseudo, fiala_slip, gnss_delayed_model, gnss_model,
-                                       kinematic_step, lateral_capacity, magnetometer_model, track_acceleration,
-                                       wheel_model)
+from sideslip.estimators.fusion import (CAPACITY_MIN, Fs, axle_pseudo, fiala_slip, gnss_delayed_model, kinematic_step,
+                                       lateral_capacity, magnetometer_model, track_acceleration, wheel_model)
 from sideslip.estimators.yoon2014 import magnetometer_h
 from sideslip.geomagnetic import earth_field, tilt_compensated_heading
 from sideslip.recording import replay
