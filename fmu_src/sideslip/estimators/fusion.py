@@ -785,12 +785,16 @@ class SideslipFusion(Estimator):
     def _apply_fix(self, ve: float, vn: float, accel: float) -> float | None:
         """A fix taken ``delay`` ago, at its own sample (module docstring): extrapolated to now, or applied there
         and the filter re-run to now from the stored inputs."""
+        hist = self._history
         if self._acc_line is not None:
             lag = min(max(int(round(float(self._x[_D_GNSS]) / self.Ts)), 0), self._max_lag)
+            # the sample compared is the oldest kept while fewer are (after the heading's initialisation): the
+            # linearisation's age must be that sample's
+            kept = len(self._modes[0].delayed) if hist is None else len(hist)
+            lag = min(lag, max(kept - 1, 0))
             acc = self._acc_line.delayed(lag)
         else:
             lag, acc = self._latency.lag(self.Ts), None
-        hist = self._history
         if hist is None:
             return self._gnss_update(ve, vn, accel, lag, acc, lag * self.Ts)
         if lag <= 0 or lag >= len(hist):
