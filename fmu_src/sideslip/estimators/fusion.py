@@ -378,8 +378,8 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                                "roll and pitch errors) as an acceleration", gt=0, le=10)
     sigma_gyro: float = param(0.002, "AngularVelocity", "Gyro noise for the heading's process noise", gt=0, le=1)
     gyro_offset_std0: float = param(0.015, "AngularVelocity", "Initial uncertainty of the gyro offset", gt=0, le=1)
-    gyro_offset_walk: float = param(1.7e-5, "AngularVelocity", "Random walk of the gyro offset per sqrt(s)",
-                                    gt=0, le=1)
+    gyro_offset_walk: float = param(1.7e-4, "AngularVelocity", "Random walk of the gyro offset per sqrt(s) (1.7e-4: "
+                                    "0.1 deg/s per 100 s, an automotive-grade gyro's drift)", gt=0, le=1)
     accel_offset_std0: float = param(0.2, "Acceleration", "Initial uncertainty of the accelerometer offsets",
                                      gt=0, le=10)
     accel_offset_walk: float = param(0.01, "Acceleration", "Random walk of the accelerometer offsets (the "
