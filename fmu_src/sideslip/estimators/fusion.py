@@ -76,6 +76,10 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   uncertainty does not reach the pseudo-measurements; ``friction_doubt`` (off by default: the training set does
   not ask for it) takes the model error's utilisation at a friction that many of its std below the estimate
   (development set, friction drop 0.28 -> 0.23 deg, the error 2.0 -> 1.6 times its std; ``docs/estimator.md``).
+  A stiffness scale more than one prior std (``stiffness_std0``) below the vehicle file's, beyond the friction's
+  own fall from ``mu0`` in its std (``mu_std0``), is a slide the stiffness absorbed rather than a file's error:
+  each further std adds ``stiffness_doubt`` to the axle's relative slip error (development set, SUV J-turn on ice
+  0.88 -> 0.58 deg, mean 0.351 -> 0.278; training flat; ``docs/estimator.md``).
 
 State: :class:`Fs` (14; the first 13 without the magnetometer, 12 without the delay state either).  Two
 formulations (``formulation``),
@@ -419,6 +423,11 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                                   "friction this many of its std below the estimate (0: at the estimate)", ge=0, le=5)
     sigma_slip: float = param(0.004, "Angle", "Slip-angle noise of the tire pseudo-measurements (sensor noise, "
                               "unmodelled dynamics)", gt=0, le=1)
+    stiffness_doubt: float = param(1.5, "Dimensionless", "Relative error of the brush model's slip angle per prior "
+                                   "std (stiffness_std0) by which an axle's stiffness scale lies below the vehicle "
+                                   "file's beyond one std and beyond the friction's fall from mu0 in its own std "
+                                   "(mu_std0): a tire explained as softer than the file allows, a slide the "
+                                   "stiffness absorbs (0: off)", ge=0, le=100)
     slip_model_error: float = param(1.0, "Dimensionless", "Relative error of the brush model's slip angle at full "
                                     "utilisation (grows with utilisation squared)", ge=0, le=10)
     relaxation_length: float = param(0.5, "Length", "Tire relaxation length: the transient slip error is the slip "
@@ -574,6 +583,7 @@ class SideslipFusion(Estimator):
         self._r_prev = None
         self._r_dot = self._accel = 0.0
         self._ln_mu_floor = math.log(cfg.mu_min)
+        self._ln_mu0, self._inv_mu_std, self._inv_c_std = math.log(cfg.mu0), 1.0 / cfg.mu_std0, 1.0 / cfg.stiffness_std0
         self._x_rate = 0.0
         self._row_mu = _EYES[n][_LN_MU]
         self._mag_last, self._mag_age = None, 0
@@ -644,7 +654,12 @@ class SideslipFusion(Estimator):
             # the friction's uncertainty is not in the rows where the tire is linear (d alpha / d ln mu ~ 0): a road
             # slipperier than estimated would make the brush model wrong by more than its own utilisation says
             doubt = math.exp(cfg.friction_doubt * math.sqrt(kf.P.item(_LN_MU, _LN_MU)))
-            for (h, row, alpha, util, alpha_max, g), rate, monitor in zip(axles, rates, mode.monitors):
+            # how far each axle's stiffness lies below the file beyond its prior std and the friction's fall
+            mu_fall = abs(x0.item(_LN_MU) - self._ln_mu0) * self._inv_mu_std
+            softness = (-x0.item(_LN_CF) * self._inv_c_std - 1.0 - mu_fall,
+                        -x0.item(_LN_CR) * self._inv_c_std - 1.0 - mu_fall)
+            for (h, row, alpha, util, alpha_max, g), rate, monitor, soft in zip(axles, rates, mode.monitors,
+                                                                                 softness):
                 slip_state = alpha - h / vx_ref if alpha >= 0.0 else h / vx_ref - alpha     # along the force
                 if cfg.sliding_friction and util > 0.05 and slip_state > alpha_max:     # (a force to take the log of)
                     # the state's slip is beyond the brush tire's at utilisation_max (where its inverse has no
@@ -663,7 +678,10 @@ class SideslipFusion(Estimator):
                     #                                 slip exceeds it the same way (a slide): nothing to correct
                 util *= doubt
                 util = util if util < 1.0 else 1.0
-                s = (cfg.sigma_slip + cfg.slip_model_error * util * util * abs(alpha)
+                rel = cfg.slip_model_error * util * util
+                if soft > 0.0:
+                    rel += cfg.stiffness_doubt * soft
+                s = (cfg.sigma_slip + rel * abs(alpha)
                      + cfg.relaxation_length / vx_ref * abs(rate)) * vx_ref * mode.r_scale
                 rr = s * s * self._corr
                 Ph = kf.P.dot(row)
