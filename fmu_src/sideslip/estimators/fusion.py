@@ -378,8 +378,10 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
     use_gnss: bool = param(True, "Dimensionless", "Use the GNSS velocity while gps_valid (false: in-vehicle sensors "
                            "only)")
     # kinematic model and offsets
-    sigma_accel: float = param(0.3, "Acceleration", "Process noise of the kinematic model (accelerometer noise, "
-                               "roll and pitch errors) as an acceleration", gt=0, le=10)
+    sigma_accel: float = param(0.1, "Acceleration", "Process noise of the kinematic model per filter sample as an "
+                               "acceleration: the accelerometers' white noise at the sample and what the roll "
+                               "compensation leaves (0.1: twice a 0.05 m/s2 automotive IMU's noise; slow errors are "
+                               "the offset and bank states')", gt=0, le=10)
     sigma_gyro: float = param(0.002, "AngularVelocity", "Gyro noise for the heading's process noise", gt=0, le=1)
     gyro_offset_std0: float = param(0.015, "AngularVelocity", "Initial uncertainty of the gyro offset", gt=0, le=1)
     gyro_offset_walk: float = param(1.7e-4, "AngularVelocity", "Random walk of the gyro offset per sqrt(s) (1.7e-4: "
