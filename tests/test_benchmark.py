@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from sideslip.params import ParameterError
 from sideslip.recording import Recording
 from sideslip.scenarios import BENCHMARK_DEVELOPMENT, BENCHMARK_TEST, BENCHMARK_TRAINING
 from sideslip.studies import benchmark as bm
@@ -115,3 +116,46 @@ def test_select_rows_keeps_predict_zero_and_names_unknown_rows():
     assert labels == ["predict-zero", "Yoon2014DualKF/published", "Yoon2014DualKF/hardened"]
     with pytest.raises(ValueError, match="unknown estimator 'Foo'"):
         bm.select_rows(["Foo"])
+
+
+def test_sensor_values_given_replace_what_the_condition_draws():
+    chosen = bm.cases(["bench_jturn_coms_ice"], ("nominal", "sensors+mismatch"), seeds=1,
+                      sensors={"ay_sigma": "0.2", "gps_delay": 0.25})
+    for case in chosen:
+        s = bm.setup(case)
+        assert s.sensors["ay_sigma"] == 0.2 and s.sensors["gps_delay"] == 0.25
+    drawn = bm.sensor_errors(chosen[1])
+    assert s.sensors["ax_sigma"] == drawn["ax_sigma"] and s.sensors["yaw_rate_bias"] == drawn["yaw_rate_bias"]
+    with pytest.raises(ParameterError, match="ay_sgima"):
+        bm.sensor_overrides({"ay_sgima": 0.2})
+    with pytest.raises(ParameterError, match="ay_sigma"):
+        bm.sensor_overrides({"ay_sigma": -1.0})
+
+
+def test_a_parameter_given_goes_to_the_rows_whose_estimator_has_it():
+    rows = bm.with_params(bm.select_rows(["SideslipFusion", "Yoon2014DualKF"]), {"sigma_accel": "0.3"})
+    for row in rows:
+        if row.estimator == "SideslipFusion":
+            assert row.params[-1] == ("sigma_accel", 0.3)
+        else:
+            assert row in bm.ROWS                                   # predict-zero and Yoon's rows unchanged
+    with pytest.raises(ValueError, match="no selected row's estimator has a parameter 'foo'"):
+        bm.with_params(rows, {"foo": 1})
+    with pytest.raises(ParameterError, match="sigma_accel"):
+        bm.with_params(rows, {"sigma_accel": -1})
+
+
+def test_the_command_line_benchmark_runs_the_rows_and_sensors_it_is_given(tmp_path):
+    from sideslip.cli import main
+
+    assert main(["benchmark", "--scenario", "bench_jturn_coms_ice", "--condition", "sensors+mismatch", "--seeds", "1",
+                 "--estimator", "SideslipFusion/in-vehicle", "--param", "sigma_accel=0.3", "--sensor", "ay_sigma=0.2",
+                 "--out", str(tmp_path), "--workers", "1"]) == 0
+    data = json.loads((tmp_path / "benchmark.json").read_text())
+    assert data["meta"]["params"] == {"sigma_accel": 0.3} and data["meta"]["sensors"] == {"ay_sigma": 0.2}
+    got = data["cases"][0]["rows"]["SideslipFusion/in-vehicle"]["rms"]
+    row = next(r for r in bm.ROWS if r.label == "SideslipFusion/in-vehicle")
+    given = bm.Case("bench_jturn_coms_ice", "sensors+mismatch", 0, sensors=(("ay_sigma", 0.2),))
+    expected = bm.run_case(given, bm.with_params((row,), {"sigma_accel": 0.3}))["rows"][row.label]["rms"]
+    default = bm.run_case(bm.Case(given.scenario, given.condition), (row,))["rows"][row.label]["rms"]
+    assert got == pytest.approx(expected, rel=1e-12) and abs(got - default) > 0.01

@@ -161,18 +161,21 @@ def _cmd_benchmark(args) -> int:
 
     seeds = args.seeds or (2 if args.quick else 5)
     conditions = args.condition or (("nominal", "sensors+mismatch") if args.quick else bm.CONDITIONS)
+    sensors, params = _kv(args.sensor, "--sensor"), _kv(args.param, "--param")
     cases = [] if args.log and not args.scenario else bm.cases(args.scenario or None, conditions, seeds,
-                                                                training=args.training, development=args.development)
+                                                                training=args.training, development=args.development,
+                                                                sensors=sensors)
     cases += [bm.log_case(path, args.map, args.vehicle) for path in args.log or ()]
     print(f"benchmark: {len(cases)} cases ({len({c.scenario for c in cases})} scenarios x {len(conditions)} "
           f"conditions x {seeds} seeds) -> {args.out}", file=sys.stderr)
     t0 = time.perf_counter()
-    rows = bm.select_rows(args.estimator)
+    rows = bm.with_params(bm.select_rows(args.estimator), params)
     results = bm.run_benchmark(cases, rows, args.workers, args.scheduler, progress=sys.stderr.isatty())
     wall = time.perf_counter() - t0
     which = "training" if args.training else "development" if args.development else "test"
     meta = {"seeds": seeds, "conditions": list(conditions), "training": args.training, "set": which, "wall_s": wall,
-            "cases": len(cases), "quick": args.quick}
+            "cases": len(cases), "quick": args.quick, "sensors": bm.sensor_overrides(sensors),
+            "params": {k: v for row in rows for k, v in row.params if k in params}}
     write_report(results, args.out, title=f"Sideslip estimator benchmark ({which} set)", meta=meta)
     print((Path(args.out) / "leaderboard.md").read_text())
     print(f"{len(cases)} cases in {wall:.0f} s; wrote {args.out}/leaderboard.md, benchmark.json, heatmap.png, "
@@ -332,6 +335,10 @@ def main(argv=None) -> int:
                        "set does not show) instead of the test set")
     bench_e.add_argument("--estimator", action="append", help="only this row, by label or estimator name, e.g. "
                          "Yoon2014DualKF/hardened or Yoon2014DualKF (repeatable; predict-zero always runs)")
+    bench_e.add_argument("--param", action="append", metavar="NAME=VALUE", help="estimator parameter on every "
+                         "selected row whose estimator has it, e.g. sigma_accel=0.2 (repeatable)")
+    bench_e.add_argument("--sensor", action="append", metavar="NAME=VALUE", help="sensor value replacing what the "
+                         "condition draws, in every case, e.g. ay_sigma=0.2 (repeatable; the sensors FMU's names)")
     bench_e.add_argument("--log", action="append", help="a recorded drive (CSV log with a reference sideslip) as a case; "
                          "alone, only the logs run (repeatable)")
     bench_e.add_argument("--map", help="column map of the logs (TOML, see the user guide)")

@@ -60,7 +60,7 @@ from .jobs import map_ordered
 
 __all__ = ["CONDITIONS", "RECORDED", "EVAL_SPEED", "OFF_DEG", "Row", "ROWS", "PAPER_METHODS", "Case", "cases", "log_case",
            "sensor_errors", "vehicle_mismatch", "setup", "record", "simulate", "make_estimator", "recorded_speed",
-           "row_metrics", "run_case", "select_rows", "run_benchmark"]
+           "row_metrics", "run_case", "select_rows", "with_params", "sensor_overrides", "run_benchmark"]
 
 CONDITIONS = ("nominal", "sensors", "mismatch", "sensors+mismatch")
 RECORDED = "recorded"
@@ -107,6 +107,7 @@ class Case:
     seed: int = 0
     log_map: str | None = None
     vehicle: str | None = None
+    sensors: tuple = ()          #: ((name, value), ...) of SensorConfig replacing the condition's (sensor_overrides)
 
     @property
     def name(self) -> str:
@@ -119,14 +120,26 @@ def log_case(path: str, log_map: str | None = None, vehicle: str | None = None) 
 
 
 def cases(scenarios=None, conditions=CONDITIONS, seeds=5, training: bool = False,
-          development: bool = False) -> list[Case]:
-    """Every scenario x condition x seed (the test set by default, or the training or the development set)."""
+          development: bool = False, sensors: dict | None = None) -> list[Case]:
+    """Every scenario x condition x seed (the test set by default, or the training or the development set), with
+    ``sensors`` (:func:`sensor_overrides`) replacing those sensor values of every case."""
     chosen = BENCHMARK_TRAINING if training else BENCHMARK_DEVELOPMENT if development else BENCHMARK_TEST
     names = scenarios or [s.name for s in chosen]
     for c in conditions:
         if c not in CONDITIONS:
             raise ValueError(f"unknown condition {c!r}; conditions: {', '.join(CONDITIONS)}")
-    return [Case(n, c, s) for n in names for c in conditions for s in range(seeds)]
+    fixed = tuple(sensor_overrides(sensors).items())
+    return [Case(n, c, s, sensors=fixed) for n in names for c in conditions for s in range(seeds)]
+
+
+def sensor_overrides(values: dict | None) -> dict:
+    """:class:`~sideslip.plant.sensors.SensorConfig` values checked and converted (a user's sensor noise, rate or
+    delay in place of what a condition draws); a name or value out of range raises
+    :class:`~sideslip.params.ParameterError` naming it."""
+    if not values:
+        return {}
+    config = build(SensorConfig, values)
+    return {name: getattr(config, name) for name in values}
 
 
 def _rng(case: Case, what: str) -> np.random.Generator:
@@ -189,6 +202,7 @@ def setup(case: Case, overrides: dict | None = None) -> CaseSetup:
     noisy = "sensors" in case.condition
     if noisy:
         sensors.update(sensor_errors(case))
+    sensors.update(case.sensors)
     vehicle = build(PlantConfig, plant).vehicle_params()
     estimator_vehicle = vehicle
     if "mismatch" in case.condition:
@@ -355,6 +369,31 @@ def select_rows(names=None) -> tuple:
     if unknown:
         raise ValueError(f"unknown estimator {unknown[0]!r}; rows: {', '.join(r.label for r in ROWS)}")
     return tuple(r for r in ROWS if r.estimator is None or r.label in names or r.estimator in names)
+
+
+def with_params(rows, params: dict | None) -> tuple:
+    """``rows`` with the estimator parameter values ``params`` on every row whose estimator has them (on top of the
+    row's own); a name no row's estimator has raises ValueError, a value out of range
+    :class:`~sideslip.params.ParameterError`."""
+    if not params:
+        return tuple(rows)
+    out, used = [], set()
+    for row in rows:
+        if row.estimator is None:
+            out.append(row)
+            continue
+        config_class = ESTIMATORS[row.estimator].config_class
+        names = {f.name for f, _ in declared_fields(config_class)}
+        mine = {k: v for k, v in params.items() if k in names}
+        if mine:
+            config = build(config_class, {**dict(row.params), **mine})
+            row = Row(row.label, row.estimator, row.params + tuple((k, getattr(config, k)) for k in mine), row.kind)
+            used.update(mine)
+        out.append(row)
+    unknown = [k for k in params if k not in used]
+    if unknown:
+        raise ValueError(f"no selected row's estimator has a parameter {unknown[0]!r}")
+    return tuple(out)
 
 
 def run_benchmark(case_list, rows=ROWS, workers: int = 2, scheduler=None, progress: bool = True) -> list[dict]:
