@@ -80,6 +80,13 @@ calibrated magnetometer (Yoon 2014), the vehicle file's cornering stiffness and 
   own fall from ``mu0`` in its std (``mu_std0``), is a slide the stiffness absorbed rather than a file's error:
   each further std adds ``stiffness_doubt`` to the axle's relative slip error (development set, SUV J-turn on ice
   0.88 -> 0.58 deg, mean 0.351 -> 0.278; training flat; ``docs/estimator.md``).
+  Linearised at its estimate the friction hardly moves a tire short of sliding, so a road slipperier than estimated
+  shows only once an axle slides.  Each sample ``friction_test`` weighs the two residuals at a few lower frictions
+  (:data:`_FRICTION_HYPOTHESES`: those more than two std below the estimate under which the more utilised axle
+  would use 0.5-0.85 of its friction) against the estimate's, with one noise for all (the model error at
+  utilisation 0.5: the fits are compared, not what each hypothesis claims to know); a CUSUM of the best one's
+  log-likelihood ratio beyond ``friction_test`` re-initialises the friction there (development set, friction drop
+  0.22 -> 0.04 deg, SUV J-turn on ice 0.58 -> 0.44, mean 0.251 -> 0.206; training 0.110 -> 0.106).
 
 State: :class:`Fs` (14; the first 13 without the magnetometer, 12 without the delay state either).  Two
 formulations (``formulation``),
@@ -133,10 +140,15 @@ from .roll import RollCompensator
 
 __all__ = ["SideslipFusionConfig", "SideslipFusion", "Fs", "EKF", "IMM", "kinematic_step", "gnss_model",
            "wheel_model", "magnetometer_model", "track_acceleration",
-           "gnss_delayed_model", "axle_pseudo", "axle_stiffness", "fiala_slip", "lateral_capacity"]
+           "gnss_delayed_model", "axle_pseudo", "axle_slip", "axle_stiffness", "fiala_slip", "lateral_capacity"]
 
 EKF, IMM = 0, 1
 """Values of the ``formulation`` parameter."""
+
+_FRICTION_HYPOTHESES = tuple(math.log(m) for m in (0.8, 0.65, 0.5, 0.4, 0.3, 0.25, 0.2, 0.15))
+"""The log frictions ``friction_test`` weighs against the estimate."""
+_TEST_MODEL_ERROR = 0.25
+"""The tire model's relative error in ``friction_test``'s likelihoods: ``slip_model_error`` at utilisation 0.5."""
 
 
 class Fs(IntEnum):
@@ -314,6 +326,24 @@ def lateral_capacity(f_max: float, f_x: float) -> tuple[float, float]:
     return math.sqrt(lat2), f2 / lat2
 
 
+def axle_slip(force: float, f_z: float, f_x: float, c_hi: float, c_lo: float, mu_lo: float, ln_scale: float,
+              mu: float, u_max: float) -> tuple:
+    """Slip angle of an axle carrying the lateral ``force`` [N] on a load ``f_z`` [N] beside a longitudinal ``f_x``
+    [N], at friction ``mu`` and the log stiffness scale ``ln_scale`` (:func:`axle_stiffness`,
+    :func:`lateral_capacity`, :func:`fiala_slip`).
+
+    Returns
+    -------
+    tuple
+        ``(alpha, d alpha / d ln C, d alpha / d ln F_max, u, C, F_max, d ln C / d ln mu, d ln F_max / d ln mu)``.
+    """
+    c, k = axle_stiffness(c_hi, c_lo, mu_lo, mu)
+    c *= math.exp(ln_scale)
+    f_max, g = lateral_capacity(mu * f_z, f_x)
+    alpha, d_c, d_m, u = fiala_slip(force, c, f_max, u_max)
+    return alpha, d_c, d_m, u, c, f_max, k, g
+
+
 def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tuple:
     """The two tire pseudo-measurements (module docstring): for each axle the residual ``h(x)`` (measured 0),
     its Jacobian row and the axle's slip angle and utilisation.
@@ -345,13 +375,8 @@ def axle_pseudo(x: np.ndarray, inp: tuple, geometry: tuple, u_max: float) -> tup
     mu = math.exp(ln_mu)
     r = r_m - b_r
     n = len(x)
-    cf, kf = axle_stiffness(c_f, c_f_lo, mu_lo, mu)
-    cr, kr = axle_stiffness(c_r, c_r_lo, mu_lo, mu)
-    cf_s, cr_s = cf * math.exp(ln_cf), cr * math.exp(ln_cr)
-    fmf, gf = lateral_capacity(mu * fzf, fxf)
-    fmr, gr = lateral_capacity(mu * fzr, fxr)
-    a_f, da_cf, da_mf, u_f = fiala_slip(fyf, cf_s, fmf, u_max)
-    a_r, da_cr, da_mr, u_r = fiala_slip(fyr, cr_s, fmr, u_max)
+    a_f, da_cf, da_mf, u_f, cf_s, fmf, kf, gf = axle_slip(fyf, fzf, fxf, c_f, c_f_lo, mu_lo, ln_cf, mu, u_max)
+    a_r, da_cr, da_mr, u_r, cr_s, fmr, kr, gr = axle_slip(fyr, fzr, fxr, c_r, c_r_lo, mu_lo, ln_cr, mu, u_max)
     # the forces come from a_y - b_ay: the offset moves the slip by -m_axle / C per m/s2, taken in the linear range
     # where it is identified (the brush model's 1 / (C (1 - u)^(2/3)) would read its own error near saturation as
     # an accelerometer offset: training set, brake in a turn on snow 0.38 deg against 0.31)
@@ -430,6 +455,10 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                                    "file's beyond one std and beyond the friction's fall from mu0 in its own std "
                                    "(mu_std0): a tire explained as softer than the file allows, a slide the "
                                    "stiffness absorbs (0: off)", ge=0, le=100)
+    friction_test: float = param(1.0, "Dimensionless", "Threshold of the CUSUM of the tire pseudo-measurements' "
+                                 "log-likelihood ratio, the best-fitting of a few lower frictions against the "
+                                 "estimate, beyond which the friction is re-initialised at that one: a slipperier "
+                                 "road found before an axle slides (0: off)", ge=0, le=1000)
     slip_model_error: float = param(1.0, "Dimensionless", "Relative error of the brush model's slip angle at full "
                                     "utilisation (grows with utilisation squared)", ge=0, le=10)
     relaxation_length: float = param(0.5, "Length", "Tire relaxation length: the transient slip error is the slip "
@@ -503,7 +532,7 @@ class _Mode:
     """One extended Kalman filter on the model (module docstring), with its pseudo-measurement scale and extra
     lateral process noise (the IMM's modes; the EKF has one)."""
 
-    __slots__ = ("kf", "r_scale", "q_vy", "monitors", "delayed", "slip", "utilisation")
+    __slots__ = ("kf", "r_scale", "q_vy", "monitors", "delayed", "slip", "utilisation", "friction_llr")
 
     def __init__(self, kf: KalmanFilter, r_scale: float, q_vy: float, window: int, history: int):
         self.kf, self.r_scale, self.q_vy = kf, r_scale, q_vy
@@ -511,6 +540,7 @@ class _Mode:
         self.delayed = DelayedMeasurements(kf, history) if history else None    # fix extrapolation
         self.slip = (0.0, 0.0)               # the axles' slip angles of the last sample [rad] (their rate)
         self.utilisation = 0.0               # the larger axle's friction utilisation
+        self.friction_llr = 0.0              # CUSUM of the low-friction hypothesis (friction_test)
 
 
 class SideslipFusion(Estimator):
@@ -650,6 +680,10 @@ class SideslipFusion(Estimator):
         if vx_ref > self.config.v_min:
             x0 = kf.x
             axles = axle_pseudo(x0, (r_m, delta, fyf, fyr, fzf, fzr, fxf, fxr), self._geometry, cfg.utilisation_max)
+            if cfg.friction_test > 0.0 and self._friction_test(mode, x0, axles, inp, vx_ref):
+                x0 = kf.x
+                axles = axle_pseudo(x0, (r_m, delta, fyf, fyr, fzf, fzr, fxf, fxr), self._geometry,
+                                    cfg.utilisation_max)
             rates = ((axles[0][2] - mode.slip[0]) / ts, (axles[1][2] - mode.slip[1]) / ts)
             mode.slip = (axles[0][2], axles[1][2])
             mode.utilisation = max(axles[0][3], axles[1][3])
@@ -699,6 +733,49 @@ class SideslipFusion(Estimator):
                 loglik -= 0.5 * (nis + math.log(2.0 * math.pi * var))
         self._bound(kf)
         return loglik
+
+    def _friction_test(self, mode: _Mode, x0: np.ndarray, axles: tuple, inp: tuple, vx_ref: float) -> bool:
+        """CUSUM of the tire pseudo-measurements' log-likelihood ratio, the best of a few lower frictions against the
+        estimate (module docstring); beyond ``friction_test`` the friction is re-initialised at that hypothesis with
+        its prior's std and no correlation.  Returns True if it was."""
+        cfg, kf = self.config, mode.kf
+        ln_mu = x0.item(_LN_MU)
+        top = ln_mu - 2.0 * math.sqrt(kf.P.item(_LN_MU, _LN_MU))
+        util = max(axles[0][3], axles[1][3])
+        best, best_ln, weights = 0.0, 0.0, None
+        fyf, fyr, fzf, fzr, fxf, fxr = inp[5:]
+        g, vx, u_max = self._geometry, x0.item(_VX), cfg.utilisation_max
+        ln_cf, ln_cr = x0.item(_LN_CF), x0.item(_LN_CR)
+        for ln_c in _FRICTION_HYPOTHESES:
+            # apart from the estimate only where its tire is nonlinear, and informative only short of saturation
+            if ln_c > top or not 0.5 <= util * math.exp(ln_mu - ln_c) <= 0.85:
+                continue
+            if weights is None:
+                # one noise for every hypothesis: the fits are compared, not how much each model claims to know
+                weights = []
+                for _, row, alpha, *_ in axles:
+                    s = (cfg.sigma_slip + _TEST_MODEL_ERROR * cfg.slip_model_error * abs(alpha)) * vx_ref
+                    weights.append(0.5 / (float(row.dot(kf.P.dot(row))) + s * s * self._corr))
+            # a residual moves with its axle's slip angle times v_x (axle_pseudo)
+            mu_c, llr = math.exp(ln_c), 0.0
+            for (h, _, alpha, *_), w, force, f_z, f_x, c_hi, c_lo, ln_s in zip(
+                    axles, weights, (fyf, fyr), (fzf, fzr), (fxf, fxr), g[2:4], g[4:6], (ln_cf, ln_cr)):
+                h_c = h + vx * (axle_slip(force, f_z, f_x, c_hi, c_lo, g[6], ln_s, mu_c, u_max)[0] - alpha)
+                llr += w * (h * h - h_c * h_c)
+            if llr > best:
+                best, best_ln = llr, ln_c
+        if best <= 0.0:
+            mode.friction_llr = 0.0
+            return False
+        mode.friction_llr += best
+        if mode.friction_llr < cfg.friction_test:
+            return False
+        mode.friction_llr = 0.0
+        kf.x[_LN_MU] = best_ln
+        kf.P[_LN_MU, :] = 0.0
+        kf.P[:, _LN_MU] = 0.0
+        kf.P[_LN_MU, _LN_MU] = cfg.mu_std0 ** 2
+        return True
 
     def _bound(self, kf: KalmanFilter) -> None:
         """Clamp the bounded states (module docstring)."""
