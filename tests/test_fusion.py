@@ -287,6 +287,7 @@ def test_a_lower_friction_that_fits_the_tires_better_is_taken_before_the_slide(f
     runs = [_run(setup, rec, friction_test=t)[1] for t in (0.0, 1.0)]
     off, on = (B.row_metrics(rec, r["beta_hat"], r["beta_hat_std"], r["valid"]) for r in runs)
     assert on["rms"] < 0.4 * off["rms"] and on["coverage95"] > 0.95 and on["off_while_valid"] == 0.0
+    assert all((r["mu_hat"] < 0.6).any() for r in runs)
     found = [rec.time[np.argmax(r["mu_hat"] < 0.6)] for r in runs]
     assert found[1] < 9.6 < found[0]
     setup, rec = slalom
