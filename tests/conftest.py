@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from sideslip.fmi.build import build_fmus
@@ -122,3 +123,14 @@ def assert_save_restore_repeats(fmu: FmuHarness, drive) -> None:
 
 def finite(values) -> bool:
     return all(math.isfinite(v) for v in values if isinstance(v, float))
+
+
+def numeric_jacobian(f, x, eps=1e-6):
+    """Central differences of ``f`` at ``x``, each state's step ``eps`` times its size (at least ``eps``)."""
+    x = np.asarray(x, dtype=float)
+    cols = []
+    for i in range(x.size):
+        d = np.zeros_like(x)
+        d[i] = eps * max(1.0, abs(x[i]))
+        cols.append((np.asarray(f(x + d)) - np.asarray(f(x - d))) / (2 * d[i]))
+    return np.column_stack(cols)

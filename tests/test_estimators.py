@@ -4,6 +4,7 @@ import math
 import numpy as np
 import pytest
 
+from conftest import numeric_jacobian
 from sideslip.bicycle import BicycleModel
 from sideslip.studies.runs import run_library
 from sideslip.scenarios import get_scenario
@@ -19,16 +20,6 @@ from sideslip.signals import ESTIMATOR_COMMON_OUTPUTS
 from sideslip.vehicles import load_vehicle
 
 RNG = np.random.default_rng(7)
-
-
-def numeric_jacobian(f, x, eps=1e-6):
-    x = np.asarray(x, dtype=float)
-    cols = []
-    for i in range(x.size):
-        d = np.zeros_like(x)
-        d[i] = eps * max(1.0, abs(x[i]))
-        cols.append((np.asarray(f(x + d)) - np.asarray(f(x - d))) / (2 * d[i]))
-    return np.column_stack(cols)
 
 
 # ---------------------------------------------------------------- Kalman core

@@ -7,8 +7,9 @@ import pytest
 
 from sideslip.bicycle import axle_forces
 from sideslip.estimators import SideslipFusionConfig
-from sideslip.estimators.fusion import (CAPACITY_MIN, Fs, axle_pseudo, fiala_slip, gnss_delayed_model, kinematic_step,
-                                       lateral_capacity, magnetometer_model, track_acceleration, wheel_model)
+from sideslip.estimators.fusion import (CAPACITY_MIN, Fs, Geometry, SampleInputs, axle_pseudo, fiala_slip,
+                                       gnss_delayed_model, kinematic_step, lateral_capacity, magnetometer_model,
+                                       track_acceleration, wheel_model)
 from sideslip.estimators.yoon2014 import magnetometer_h
 from sideslip.geomagnetic import earth_field, tilt_compensated_heading
 from sideslip.recording import replay
@@ -23,8 +24,7 @@ def _observability_rank(gnss: bool, turning: bool, magnetometer: bool = True) ->
     measurement rows times the transition from the start), and its smallest right singular vector."""
     v = load_vehicle("park2018_sonata")
     ts, n = 0.01, 2000
-    geometry = (v.l_f, v.l_r, v.C_f_nominal, v.C_r_nominal, v.C_f_nominal_lo, v.C_r_nominal_lo, v.mu_lo,
-                v.m * v.l_r / v.l, v.m * v.l_f / v.l)
+    geometry = Geometry.from_vehicle(v)
     x = np.zeros(len(Fs))
     x[Fs.VX], x[Fs.B_R], x[Fs.B_AX], x[Fs.B_AY], x[Fs.D_DELTA], x[Fs.G_Y] = 12.0, 0.005, 0.1, -0.1, 0.002, 0.5
     x[Fs.D_GNSS] = 0.1
@@ -41,7 +41,8 @@ def _observability_rank(gnss: bool, turning: bool, magnetometer: bool = True) ->
         fyf, fyr = axle_forces(v.m, v.I_zz, v.l_f, v.l_r, ay + x[Fs.G_Y], (r - r_prev) / ts)
         r_prev = r
         delta = v.l * r / x[Fs.VX] + fyf / v.C_f_nominal - fyr / v.C_r_nominal
-        for h, row, *_ in axle_pseudo(x, (r + x[Fs.B_R], delta, fyf, fyr, *fz, 0.0, 0.0), geometry, 0.95):
+        for h, row, *_ in axle_pseudo(x, SampleInputs(0.0, 0.0, r + x[Fs.B_R], delta, 0.0, fyf, fyr, *fz, 0.0, 0.0),
+                                      geometry, 0.95):
             rows.append(row.dot(phi))
         rows.append(wheel_model(x)[1].dot(phi))
         if gnss and k % 10 == 0:                   # the fix of D ago, on the sample D ago (the delay's column)
@@ -109,22 +110,21 @@ def test_a_braked_axle_slides_sideways_earlier_and_its_friction_jacobian_holds()
     assert lateral_capacity(5000.0, -3000.0)[0] == pytest.approx(4000.0)          # friction ellipse
     assert lateral_capacity(5000.0, 6000.0) == (CAPACITY_MIN * 5000.0, 1.0)       # the friction estimate is too low
     v = load_vehicle("park2018_sonata")
-    geometry = (v.l_f, v.l_r, v.C_f_nominal, v.C_r_nominal, v.C_f_nominal_lo, v.C_r_nominal_lo, v.mu_lo,
-                v.m * v.l_r / v.l, v.m * v.l_f / v.l)
+    geometry = Geometry.from_vehicle(v)
     x = np.zeros(len(Fs))
     x[Fs.VX], x[Fs.VY], x[Fs.LN_MU] = 14.0, -0.3, math.log(0.4)
     fz = (v.m * 9.81 * v.l_r / v.l, v.m * 9.81 * v.l_f / v.l)
-    inp = (0.15, 0.04, 0.5 * 0.4 * fz[0], 0.5 * 0.4 * fz[1], *fz)
-    pure = axle_pseudo(x, (*inp, 0.0, 0.0), geometry, 0.95)
-    braked = axle_pseudo(x, (*inp, -0.25 * 0.4 * fz[0], -0.15 * 0.4 * fz[1]), geometry, 0.95)
-    for p, b in zip(pure, braked):
-        assert abs(b[2]) > abs(p[2]) and b[3] > p[3]       # more slip and utilisation for the same lateral force
+    inp = (0.0, 0.0, 0.15, 0.04, 0.0, 0.5 * 0.4 * fz[0], 0.5 * 0.4 * fz[1], *fz)
+    pure = axle_pseudo(x, SampleInputs(*inp, 0.0, 0.0), geometry, 0.95)
+    braked = axle_pseudo(x, SampleInputs(*inp, -0.25 * 0.4 * fz[0], -0.15 * 0.4 * fz[1]), geometry, 0.95)
+    for p, b in zip(pure, braked):       # more slip and utilisation for the same lateral force
+        assert abs(b.slip) > abs(p.slip) and b.utilisation > p.utilisation
     eps = 1e-6                                       # d h / d ln mu against a difference quotient, braked
     x2 = x.copy()
     x2[Fs.LN_MU] += eps
-    moved = axle_pseudo(x2, (*inp, -0.25 * 0.4 * fz[0], -0.15 * 0.4 * fz[1]), geometry, 0.95)
+    moved = axle_pseudo(x2, SampleInputs(*inp, -0.25 * 0.4 * fz[0], -0.15 * 0.4 * fz[1]), geometry, 0.95)
     for b, m in zip(braked, moved):
-        assert b[1][Fs.LN_MU] == pytest.approx((m[0] - b[0]) / eps, rel=1e-4)
+        assert b.row[Fs.LN_MU] == pytest.approx((m.residual - b.residual) / eps, rel=1e-4)
 
 
 def test_a_bad_friction_range_is_rejected_with_its_names():

@@ -8,8 +8,9 @@ import pytest
 from sideslip.estimators import ESTIMATORS
 from sideslip.estimators.base import RESTART_STD, Estimator, EstimatorConfig
 from sideslip.estimators.delay import IDENTIFIED_STD, CourseDelay, GpsLatency
-from sideslip.estimators.hardening import (InnovationMonitor, KinematicCheck, ProfiledConfig, ProfiledEstimator,
-                                          model_sideslip_std)
+from sideslip.estimators.kalman import InnovationMonitor
+from sideslip.estimators.model_trust import KinematicCheck, model_sideslip_std
+from sideslip.estimators.profiles import ProfiledConfig, ProfiledEstimator
 from sideslip.params import build
 from sideslip.recording import replay
 from sideslip.scenarios import get_scenario
@@ -230,7 +231,7 @@ def test_kinematic_check_passes_offsets_and_a_bank_and_sees_a_slide_the_estimate
 
 def test_kinematic_check_makes_a_linear_tire_estimate_not_valid_in_a_balanced_slide():
     """Kim 2016 on the test set's friction drop: with the check its estimate is never valid while more than
-    3 deg off for more than 0.5 s; without it, it is (module docstring of hardening)."""
+    3 deg off for more than 0.5 s; without it, it is (sideslip.estimators.model_trust)."""
     case = bm.Case("bench_changing_mu_sonata", "sensors+mismatch", 0)
     s, rec = bm.setup(case), bm.simulate(case)
     longest = {}

@@ -3,8 +3,11 @@
 Every estimator is a :class:`~sideslip.estimators.base.Estimator`: construct it with its
 config (or the defaults), call ``step(h, *inputs)`` with the inputs named by ``input_names``
 and read ``outputs()`` / ``output_dict()``.  Each paper's method has a ``profile`` parameter:
-hardened (the default) or as published; what the hardened profiles share is in
-:mod:`~sideslip.estimators.hardening` and :mod:`~sideslip.estimators.delay` (GPS latency).
+hardened (the default) or as published (:mod:`~sideslip.estimators.profiles`); the shared parts are
+the Kalman core and innovation monitor (:mod:`~sideslip.estimators.kalman`), the IMM
+(:mod:`~sideslip.estimators.imm`), the linear-tire checks (:mod:`~sideslip.estimators.model_trust`)
+and the GPS delay (:mod:`~sideslip.estimators.delay`).  The project's own estimator is the package
+:mod:`~sideslip.estimators.fusion`.
 """
 from .base import Estimator, EstimatorConfig
 from .fusion import SideslipFusion, SideslipFusionConfig

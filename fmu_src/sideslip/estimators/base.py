@@ -12,6 +12,9 @@ numerically (a singular innovation covariance, a non-finite estimate: a method d
 what it was designed for) is restarted from its initial state with ``valid`` false, and
 :attr:`Estimator.restarts` counts it: the host sees a held estimate, never an exception.
 
+What ``valid`` reports on top of an estimator's own flag is gated by :class:`ValidityGate`: not valid
+above ``valid_std_max`` of reported std, and only after ``valid_hold`` seconds without a break.
+
 The common outputs of the contract come first, in this order: ``beta_hat``,
 ``beta_hat_std``, ``vx_hat``, ``vy_hat``, ``yaw_rate_hat``, ``valid``; each estimator appends
 its own.
@@ -30,7 +33,8 @@ from ..signals import ESTIMATOR_COMMON_OUTPUTS, WHEEL_SPEEDS_M
 from ..vehicles import VehicleConfig, VehicleParams
 from .kalman import KalmanFilter
 
-__all__ = ["EstimatorConfig", "Estimator", "undriven_wheels", "input_enum", "beta_std", "lowpass"]
+__all__ = ["EstimatorConfig", "Estimator", "ValidityGate", "undriven_wheels", "input_enum", "beta_std", "lowpass",
+           "valid_std_max_param", "valid_hold_param", "nis_limit_param"]
 
 RESTART_STD = 0.03
 """[rad] ``beta_hat_std`` reported before the first estimate and after a restart, with the estimate at its
@@ -39,6 +43,24 @@ benchmark's training scenarios under ``sensors+mismatch`` is 0.029 rad, 1.7 deg)
 
 EVENT_INPUTS = ("gps_fresh",)
 """Inputs that are true for one communication step and must be latched until the next sample."""
+
+
+def valid_std_max_param(default: float = 0.026, prefix: str = ""):
+    """The ``valid_std_max`` parameter (:class:`ValidityGate`); ``prefix`` starts its description."""
+    return param(default, "Angle", prefix + "beta_hat_std above which the estimate is not valid", gt=0, le=1.0)
+
+
+def valid_hold_param(default: float = 1.0, prefix: str = ""):
+    """The ``valid_hold`` parameter (:class:`ValidityGate`); ``prefix`` starts its description."""
+    return param(default, "Time", prefix + "how long the estimate must have been valid without a break before valid is "
+                 "reported (a filter needs time to re-converge)", ge=0, le=60)
+
+
+def nis_limit_param(default: float = 25.0, prefix: str = ""):
+    """The ``nis_limit`` parameter (:class:`~sideslip.estimators.kalman.InnovationMonitor`); ``prefix`` starts its
+    description."""
+    return param(default, "Dimensionless", prefix + "innovation consistency (NIS per degree of freedom over the "
+                 "method's window) above which the estimate is not valid", gt=1, le=1e6)
 
 
 @dataclass(frozen=True)
@@ -187,3 +209,38 @@ class Estimator(SampledModel):
                 self._seen[i] = False
         if ran:
             self._out = self._pack()
+
+
+class ValidityGate:
+    """What ``valid`` reports on top of the filter's own flag: an estimate whose reported std exceeds
+    ``valid_std_max`` is not valid, and after any break ``valid`` is reported only once the estimate
+    has been valid for ``valid_hold`` seconds (a filter that has just left a state it could not model
+    needs that long to re-converge).
+
+    Parameters
+    ----------
+    std_max : float
+        Largest reported std of a valid estimate [rad].
+    hold : float
+        Time without a break before ``valid`` is reported [s].
+    """
+
+    __slots__ = ("std_max", "hold", "_since")
+
+    def __init__(self, std_max: float, hold: float):
+        self.std_max, self.hold = std_max, hold
+        self._since = None
+
+    def __call__(self, est: Estimator, out: tuple) -> tuple:
+        """The packed outputs ``out`` of ``est`` with its ``valid`` gated; sets ``est.valid`` false above the
+        std limit."""
+        if est.beta_std > self.std_max:
+            est.valid = False
+        if not est.valid:
+            self._since = None
+            return out[:5] + (0.0,) + out[6:]
+        if self._since is None:
+            self._since = est.t
+        if est.t - self._since < self.hold - 1e-9:
+            return out[:5] + (0.0,) + out[6:]           # the filter's own flag stays, the output waits
+        return out

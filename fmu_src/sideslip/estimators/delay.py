@@ -12,16 +12,22 @@ delay ``D`` on a grid of the sample period and pick the delay with the smallest 
 
 :class:`DelayLine` keeps a filter's predicted measurement of the last samples so that a delayed fix
 is compared with the prediction of its own time, and :class:`GpsLatency` is the delay a hardened
-filter uses: a prior until the delay is identified, with the uncertainty that remains.
+filter uses: a prior until the delay is identified, with the uncertainty that remains
+(:class:`GpsLatencyConfig` its parameters).
 """
 from __future__ import annotations
 
 import math
 from collections import deque
+from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DelayIdentifier", "CourseDelay", "DelayLine", "GpsLatency", "IDENTIFIED_STD"]
+from ..params import param
+from .profiles import HARDENED_PREFIX
+
+__all__ = ["DelayIdentifier", "CourseDelay", "DelayLine", "GpsLatency", "GpsLatencyConfig", "HardenedGpsLatencyConfig",
+           "IDENTIFIED_STD"]
 
 IDENTIFIED_STD = 0.025
 """[s] uncertainty of a delay identified by :class:`CourseDelay`: the RMS error of the identified delays
@@ -269,3 +275,34 @@ class GpsLatency:
         """Variance of a course from the delay's uncertainty at the yaw rate ``yaw_rate`` [rad2]."""
         e = yaw_rate * self.std
         return e * e
+
+
+def _latency_param(prefix: str = ""):
+    return param(0.1, "Time", prefix + "GPS delay used until it is identified (the receiver's latency)", ge=0, le=0.5)
+
+
+def _latency_std_param(prefix: str = ""):
+    return param(0.1, "Time", prefix + "uncertainty of gps_latency (its error enters the course noise as yaw rate x "
+                 "delay)", ge=0, le=0.5)
+
+
+def _identify_param(prefix: str = ""):
+    return param(True, "Dimensionless", prefix + "identify the GPS delay while the yaw rate changes")
+
+
+@dataclass(frozen=True)
+class GpsLatencyConfig:
+    """The parameters of :class:`GpsLatency`, for the estimators that use GPS."""
+
+    gps_latency: float = _latency_param()
+    gps_latency_std: float = _latency_std_param()
+    identify_delay: bool = _identify_param()
+
+
+@dataclass(frozen=True)
+class HardenedGpsLatencyConfig(GpsLatencyConfig):
+    """:class:`GpsLatencyConfig` of a paper's method, whose hardened profile alone uses it."""
+
+    gps_latency: float = _latency_param(HARDENED_PREFIX)
+    gps_latency_std: float = _latency_std_param(HARDENED_PREFIX)
+    identify_delay: bool = _identify_param(HARDENED_PREFIX)

@@ -37,13 +37,13 @@ sensors and vehicles other than the paper's, each with the failure it answers:
   a snow circle on the training set, where the estimate was better than predicting zero.
 * **Truthful uncertainty and validity**: the reported std is inflated by the consistency of the
   innovations and adds the linear tires' model error, the sideslip's variance is raised beyond
-  their range (:class:`~sideslip.estimators.hardening.ModelTrust`, with the steering sensor's
+  their range (:class:`~sideslip.estimators.model_trust.ModelTrust`, with the steering sensor's
   angle); ``valid`` is false while the innovations are inconsistent, while the std exceeds
   ``valid_std_max`` and while the steering residual exceeds ``residual_valid``: beyond the linear
   range the estimated steering absorbs what the linear tires cannot explain, and the residual
   against the steering sensor shows it (on packed snow at the limit it reaches 0.12 rad, in a lane
   change on dry asphalt 0.02).
-* **The kinematics as a check** (:class:`~sideslip.estimators.hardening.KinematicCheck`): where both
+* **The kinematics as a check** (:class:`~sideslip.estimators.model_trust.KinematicCheck`): where both
   axles saturate together (a sine steer as the friction drops to 0.4) the tire-linearity test and the
   steering residual see little for a second while the car slides by 5 deg; the estimate's departure
   from ``d(beta)/dt = a_y / v_x - r`` enters the reported std (``kinematic_check``).
@@ -60,8 +60,9 @@ from ..bicycle import BicycleModel
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
 from .base import input_enum
-from .hardening import InnovationMonitor, LinearTireConfig, ModelTrust, ProfiledEstimator
-from .kalman import KalmanFilter
+from .kalman import InnovationMonitor, KalmanFilter
+from .model_trust import LinearTireConfig, ModelTrust
+from .profiles import ProfiledEstimator
 
 __all__ = ["Kim2016Config", "Kim2016SteeringEKF", "St", "kim_f", "kim_F", "kim_h", "kim_H"]
 

@@ -51,14 +51,14 @@ sensors and vehicles other than the paper's, each with the failure it answers:
   has ``sigma_v / v`` of noise on top of the receiver's ``sigma_course``; below ``course_speed`` the
   course is not used.
 * **Truthful uncertainty and validity**: ``beta_hat_std`` is inflated by the course innovations'
-  consistency (:class:`~sideslip.estimators.hardening.InnovationMonitor`) and adds the linear tires'
+  consistency (:class:`~sideslip.estimators.model_trust.InnovationMonitor`) and adds the linear tires'
   model error; beyond their range the sideslip's variance is raised
-  (:class:`~sideslip.estimators.hardening.ModelTrust`, which needs the lateral acceleration: the
+  (:class:`~sideslip.estimators.model_trust.ModelTrust`, which needs the lateral acceleration: the
   input ``ay_m``, unused as published); ``valid`` is false until the heading has been set, while the
   GPS is out longer than ``gps_coast``, while the innovations are inconsistent and while the std
   exceeds ``valid_std_max``; inconsistent yaw-rate innovations (a diverged filter) restart the filter.
   The estimate's departure from the kinematics ``d(beta)/dt = a_y / v_x - r``
-  (:class:`~sideslip.estimators.hardening.KinematicCheck`, ``kinematic_check``) adds to the reported
+  (:class:`~sideslip.estimators.model_trust.KinematicCheck`, ``kinematic_check``) adds to the reported
   std: in a J-turn on a wet road the kinematic blend follows the accelerometer's offset and roll, and
   the check shortens the longest stretch of more than 3 deg off while valid from 0.84 to 0.44 s
   (training set, two seeds).
@@ -81,10 +81,11 @@ from ..params import param
 from ..signals import WHEEL_SPEEDS_M
 from ..units import wrap_angle
 from .base import input_enum
-from .delay import DelayLine, GpsLatency
+from .delay import DelayLine, GpsLatency, HardenedGpsLatencyConfig
 from .discrete import SpeedCache, euler, zoh
-from .hardening import GpsLatencyConfig, InnovationMonitor, LinearTireConfig, ModelTrust, ProfiledEstimator
-from .kalman import KalmanFilter
+from .kalman import InnovationMonitor, KalmanFilter
+from .model_trust import LinearTireConfig, ModelTrust
+from .profiles import ProfiledEstimator
 
 __all__ = ["Nguyen2012Config", "Nguyen2012DACMRKF", "St", "continuous_model", "hardened_model", "MODES"]
 
@@ -126,7 +127,7 @@ def hardened_model(model: BicycleModel, tau_d: float, vx: float) -> tuple[np.nda
 
 
 @dataclass(frozen=True)
-class Nguyen2012Config(LinearTireConfig, GpsLatencyConfig):
+class Nguyen2012Config(LinearTireConfig, HardenedGpsLatencyConfig):
     """Parameters of :class:`Nguyen2012DACMRKF`; the paper gives none of Q_w and Q_v in numbers."""
 
     vehicle: str = param("nguyen2012_coms", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")

@@ -53,9 +53,9 @@ sensors and drives other than the paper's, each with the failure it answers:
   pseudo-measurement noise; the hardened std is the weighting of the sub-filters' own,
   ``(1 - K)^2 sigma_bic^2 + K^2 sigma_kin^2``, the bicycle sub-filter's covering its stiffness states
   (its sideslip variance raised beyond the tires' linear range,
-  :class:`~sideslip.estimators.hardening.ModelTrust`) and the kinematic one's inflated by the
+  :class:`~sideslip.estimators.model_trust.ModelTrust`) and the kinematic one's inflated by the
   consistency of the GPS innovations, plus the output's departure from the kinematics
-  ``d(beta)/dt = a_y / v_x - r`` (:class:`~sideslip.estimators.hardening.KinematicCheck`,
+  ``d(beta)/dt = a_y / v_x - r`` (:class:`~sideslip.estimators.model_trust.KinematicCheck`,
   ``kinematic_check``); ``valid`` is false while the GPS is out longer than ``gps_coast``, while
   those innovations are inconsistent and while the std exceeds ``valid_std_max``.
 """
@@ -74,8 +74,9 @@ from ..signals import WHEEL_SPEEDS_M
 from ..units import wrap_angle
 from .base import beta_std, input_enum, lowpass
 from .delay import CourseDelay, DelayLine
-from .hardening import InnovationMonitor, LinearTireConfig, ModelTrust, ProfiledEstimator
-from .kalman import KalmanFilter
+from .kalman import InnovationMonitor, KalmanFilter
+from .model_trust import LinearTireConfig, ModelTrust
+from .profiles import ProfiledEstimator
 from .roll import RollCompensator
 
 __all__ = ["Park2018Config", "Park2018Observer", "Bic", "Kin", "Intg", "bicycle_f", "bicycle_F", "bicycle_h", "bicycle_H",

@@ -61,9 +61,9 @@ vehicles and sensors other than the paper's, each with the failure it answers:
   filter certain of a model that is 30 % off (the reported std was 400-18,000 times smaller than the
   error); the hardened profile takes ``q_beta_hardened`` and ``r_force_hardened``, inflates the
   reported std by the consistency of the innovations and adds the linear tires' model error; beyond
-  their range the sideslip's variance is raised (:class:`~sideslip.estimators.hardening.ModelTrust`);
+  their range the sideslip's variance is raised (:class:`~sideslip.estimators.model_trust.ModelTrust`);
   ``valid`` is false while the std exceeds ``valid_std_max``.
-* **The kinematics as a check** (:class:`~sideslip.estimators.hardening.KinematicCheck`,
+* **The kinematics as a check** (:class:`~sideslip.estimators.model_trust.KinematicCheck`,
   ``kinematic_check``): the estimate's departure from ``d(beta)/dt = a_y / v_x - r`` enters the
   reported std, so a slide with both axles saturated, which the linearity test sees late, makes the
   estimate not valid.
@@ -81,8 +81,9 @@ from ..params import ParameterError, check, param
 from ..signals import WHEEL_SPEEDS_M
 from .base import input_enum, lowpass
 from .fuzzy import Mamdani, Trapezoid
-from .hardening import InnovationMonitor, LinearTireConfig, ModelTrust, ProfiledEstimator
-from .kalman import KalmanFilter
+from .kalman import InnovationMonitor, KalmanFilter
+from .model_trust import LinearTireConfig, ModelTrust
+from .profiles import ProfiledEstimator
 from .roll import RollCompensator
 
 __all__ = ["Pi2011Config", "Pi2011FuzzyEKF", "St", "pi_f", "pi_F", "pi_h", "pi_H", "nonlinear_factor_system",

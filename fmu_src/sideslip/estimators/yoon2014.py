@@ -83,10 +83,10 @@ from ..params import param
 from ..signals import WHEEL_SPEEDS_M
 from ..units import wrap_angle
 from .base import beta_std, input_enum
-from .hardening import GpsLatencyConfig, InnovationMonitor, ProfiledConfig, ProfiledEstimator
 from .baselines import BicycleObserverConfig, LinearBicycleObserver
-from .delay import DelayIdentifier, GpsLatency
-from .kalman import KalmanFilter
+from .delay import DelayIdentifier, GpsLatency, HardenedGpsLatencyConfig
+from .kalman import InnovationMonitor, KalmanFilter
+from .profiles import ProfiledConfig, ProfiledEstimator
 
 __all__ = ["Yoon2014Config", "Yoon2014DualKF", "Hd", "Sd", "magnetometer_h", "magnetometer_H",
            "sideslip_F", "DelayIdentifier"]
@@ -132,7 +132,7 @@ def sideslip_F(yaw_rate: float, ts: float) -> np.ndarray:
 
 # ------------------------------------------------------------------------------ configuration
 @dataclass(frozen=True)
-class Yoon2014Config(ProfiledConfig, GpsLatencyConfig):
+class Yoon2014Config(ProfiledConfig, HardenedGpsLatencyConfig):
     """Parameters of :class:`Yoon2014DualKF`."""
 
     vehicle: str = param("kim2016_asm", "Dimensionless", "Vehicle parameter set: bundled name or TOML path")

@@ -1,27 +1,19 @@
-"""What the hardened profiles of the papers' estimators share.
+"""What a filter on the linear single-track model cannot know of its own model.
 
-Every paper's estimator has two profiles, chosen by its ``profile`` parameter:
-``0`` the method as published (the papers' tables are computed with it) and ``1`` hardened for
-sensors and vehicles other than the paper's (the default).  Each method documents its own
-additions; these are the common parts:
+Beyond the tires' linear range (on snow at 0.3 g, on asphalt near the limit) every linear-model
+estimate is wrong whatever its covariance says, and a vehicle file's cornering stiffness may be 30 %
+off.  The hardened profiles of the linear-tire methods (Kim 2016, Pi 2011, Park 2018's bicycle
+sub-filter, Nguyen 2012) add what these checks find to their uncertainty:
 
-* :class:`InnovationMonitor` - does the filter's covariance explain its innovations (NIS over a
-  window)?  The reported std is inflated by it and the estimate is not valid when it fails.
 * :func:`model_sideslip_std` - the sideslip error of a cornering stiffness that is a fraction off.
 * :class:`TireLinearity` - does the single-track model with linear tires explain the measured
-  steering, yaw rate and accelerations?  Beyond the tires' linear range (on snow at 0.3 g, on
-  asphalt near the limit) every linear-model estimate is wrong whatever its covariance says; the
-  gap sets a sideslip uncertainty that enters the filter's covariance and the reported std
-  (:class:`ModelTrust` applies both).
+  steering, yaw rate and accelerations?  The gap sets a sideslip uncertainty that enters the
+  filter's covariance and the reported std (:class:`ModelTrust` applies both).
 * :class:`KinematicCheck` - does the estimate follow the sideslip's kinematics
   ``d(beta)/dt = a_y / v_x - r``?  When both axles leave their linear range together (on snow in a
   sine steer) :class:`TireLinearity` sees little, yet the car slides by degrees in a second while a
   linear-tire estimate stays where its model puts it; the kinematics, high-passed so that sensor
   offsets and a road bank drop out, show it.
-* the validity gate of :class:`ProfiledEstimator`: an estimate whose reported std exceeds
-  ``valid_std_max`` is not valid, so ``valid`` follows whatever the std knows, and after any break
-  ``valid`` is reported only once the estimate has been valid for ``valid_hold`` seconds (a filter
-  that has just left a state it could not model needs that long to re-converge).
 """
 from __future__ import annotations
 
@@ -31,176 +23,29 @@ from dataclasses import dataclass
 from ..bicycle import axle_forces
 from ..params import param
 from ..vehicles import VehicleParams
-from .base import Estimator, EstimatorConfig, lowpass
+from .base import lowpass
+from .profiles import HARDENED_PREFIX, ProfiledConfig
 from .roll import RollCompensator
 
-__all__ = ["PUBLISHED", "HARDENED", "ProfiledConfig", "GpsLatencyConfig", "LinearTireConfig", "ProfiledEstimator",
-           "InnovationMonitor", "ValidityGate", "valid_std_max_param", "valid_hold_param",
-           "nis_limit_param", "model_sideslip_std", "TireLinearity", "KinematicCheck", "ModelTrust"]
-
-PUBLISHED, HARDENED = 0, 1
-"""Values of the ``profile`` parameter."""
-
-
-def valid_std_max_param(default: float = 0.026, prefix: str = ""):
-    """The ``valid_std_max`` parameter (:class:`ValidityGate`); ``prefix`` starts its description."""
-    return param(default, "Angle", prefix + "beta_hat_std above which the estimate is not valid", gt=0, le=1.0)
-
-
-def valid_hold_param(default: float = 1.0, prefix: str = ""):
-    """The ``valid_hold`` parameter (:class:`ValidityGate`); ``prefix`` starts its description."""
-    return param(default, "Time", prefix + "how long the estimate must have been valid without a break before valid is "
-                 "reported (a filter needs time to re-converge)", ge=0, le=60)
-
-
-def nis_limit_param(default: float = 25.0, prefix: str = ""):
-    """The ``nis_limit`` parameter (:class:`InnovationMonitor`); ``prefix`` starts its description."""
-    return param(default, "Dimensionless", prefix + "innovation consistency (NIS per degree of freedom over the "
-                 "method's window) above which the estimate is not valid", gt=1, le=1e6)
-
-
-@dataclass(frozen=True)
-class ProfiledConfig(EstimatorConfig):
-    """:class:`~sideslip.estimators.base.EstimatorConfig` plus the choice of profile."""
-
-    profile: int = param(1, "Dimensionless", "0: the method as published (the papers' tables); 1: hardened for "
-                         "sensors and vehicles other than the paper's (each addition documented with the method)",
-                         choices=(PUBLISHED, HARDENED))
-    valid_std_max: float = valid_std_max_param(prefix="Hardened: ")
-    valid_hold: float = valid_hold_param(prefix="Hardened: ")
-    nis_limit: float = nis_limit_param(prefix="Hardened: ")
-
-
-@dataclass(frozen=True)
-class GpsLatencyConfig:
-    """The hardened profile's GPS delay (:class:`~sideslip.estimators.delay.GpsLatency`), for the methods that
-    use GPS."""
-
-    gps_latency: float = param(0.1, "Time", "Hardened: GPS delay used until it is identified (the receiver's "
-                               "latency)", ge=0, le=0.5)
-    gps_latency_std: float = param(0.1, "Time", "Hardened: uncertainty of gps_latency (its error enters the course "
-                                   "noise as yaw rate x delay)", ge=0, le=0.5)
-    identify_delay: bool = param(True, "Dimensionless", "Hardened: identify the GPS delay while the yaw rate changes")
+__all__ = ["LinearTireConfig", "model_sideslip_std", "TireLinearity", "KinematicCheck", "ModelTrust"]
 
 
 @dataclass(frozen=True)
 class LinearTireConfig(ProfiledConfig):
-    """:class:`ProfiledConfig` of a method built on the linear single-track model (:class:`ModelTrust`)."""
+    """:class:`~sideslip.estimators.profiles.ProfiledConfig` of a method built on the linear single-track model
+    (:class:`ModelTrust`)."""
 
-    stiffness_error: float = param(0.3, "Dimensionless", "Hardened: relative error of the vehicle file's cornering "
-                                   "stiffness in the reported std", ge=0, le=2)
-    kinematic_gap: float = param(0.01, "Angle", "Hardened: tire-linearity gap at which the estimate leans half on the "
-                                 "kinematic (sensor) path instead of the linear tires", gt=0, le=1)
-    kinematic_check: bool = param(True, "Dimensionless", "Hardened: add to the reported std how far the estimate's "
-                                  "changes depart from the kinematic d(beta)/dt = a_y/v_x - r (KinematicCheck)")
-    kinematic_tol: float = param(0.02, "Angle", "Hardened: departure from the kinematics that sensor noise and roll "
-                                 "explain (KinematicCheck)", ge=0, le=1)
-    kinematic_tau: float = param(2.0, "Time", "Hardened: time constant of the high-pass filter of KinematicCheck "
-                                 "(offsets slower than this drop out)", gt=0, le=60)
-
-
-class ValidityGate:
-    """What ``valid`` reports on top of the filter's own flag: an estimate whose reported std exceeds
-    ``valid_std_max`` is not valid, and after any break ``valid`` is reported only once the estimate
-    has been valid for ``valid_hold`` seconds (module docstring).
-
-    Parameters
-    ----------
-    std_max : float
-        Largest reported std of a valid estimate [rad].
-    hold : float
-        Time without a break before ``valid`` is reported [s].
-    """
-
-    __slots__ = ("std_max", "hold", "_since")
-
-    def __init__(self, std_max: float, hold: float):
-        self.std_max, self.hold = std_max, hold
-        self._since = None
-
-    def __call__(self, est: Estimator, out: tuple) -> tuple:
-        """The packed outputs ``out`` of ``est`` with its ``valid`` gated; sets ``est.valid`` false above the
-        std limit."""
-        if est.beta_std > self.std_max:
-            est.valid = False
-        if not est.valid:
-            self._since = None
-            return out[:5] + (0.0,) + out[6:]
-        if self._since is None:
-            self._since = est.t
-        if est.t - self._since < self.hold - 1e-9:
-            return out[:5] + (0.0,) + out[6:]           # the filter's own flag stays, the output waits
-        return out
-
-
-class ProfiledEstimator(Estimator):
-    """An estimator with a published and a hardened profile (``self.hardened``; a method may turn it
-    off for a variant it does not harden)."""
-
-    config_class = ProfiledConfig
-
-    def reset(self) -> None:
-        self.hardened = self.config.profile == HARDENED
-        self._gate = ValidityGate(self.config.valid_std_max, self.config.valid_hold)
-        super().reset()
-
-    def _pack(self) -> tuple:
-        out = super()._pack()
-        return self._gate(self, out) if self.hardened else out
-
-
-class InnovationMonitor:
-    """Normalised innovation squared (NIS) of a filter over a sliding window: does its covariance
-    explain its innovations?
-
-    For a consistent filter the NIS of an ``m``-dimensional innovation averages ``m``; :attr:`ratio`
-    is the window's sum of NIS over its sum of ``m``.  A ratio well above 1 says the filter's
-    covariance is too small for what it sees (model error, a sensor offset): the hardened estimators
-    scale their reported standard deviation by ``sqrt(ratio)`` (:meth:`inflation`) and call the
-    estimate not valid above ``limit``.
-
-    Parameters
-    ----------
-    window : int
-        Number of updates in the window.
-    limit : float
-        Ratio above which the filter is judged inconsistent.
-    """
-
-    __slots__ = ("_nis", "_dof", "_i", "_sum_nis", "_sum_dof", "limit", "count")
-
-    def __init__(self, window: int, limit: float = 10.0):
-        self._nis = [0.0] * window
-        self._dof = [0.0] * window
-        self._i = 0
-        self._sum_nis = self._sum_dof = 0.0
-        self.limit = limit
-        self.count = 0
-
-    def add(self, nis: float, dof: int = 1) -> None:
-        """Record one update's NIS (capped at 1e6 so one outlier cannot poison the window)."""
-        nis = nis if nis < 1e6 else 1e6
-        i = self._i
-        self._sum_nis += nis - self._nis[i]
-        self._sum_dof += dof - self._dof[i]
-        self._nis[i], self._dof[i] = nis, float(dof)
-        self._i = (i + 1) % len(self._nis)
-        self.count += 1
-
-    @property
-    def ratio(self) -> float:
-        """Sum of NIS over the sum of degrees of freedom in the window (1 for a consistent filter)."""
-        return self._sum_nis / self._sum_dof if self._sum_dof > 0.0 else 1.0
-
-    def inflation(self) -> float:
-        """Factor for the reported standard deviation, ``sqrt(max(1, ratio))``."""
-        r = self.ratio
-        return math.sqrt(r) if r > 1.0 else 1.0
-
-    @property
-    def consistent(self) -> bool:
-        """False once a full window's ratio exceeds :attr:`limit`."""
-        return self.count < len(self._nis) or self.ratio <= self.limit
+    stiffness_error: float = param(0.3, "Dimensionless", HARDENED_PREFIX + "relative error of the vehicle file's "
+                                   "cornering stiffness in the reported std", ge=0, le=2)
+    kinematic_gap: float = param(0.01, "Angle", HARDENED_PREFIX + "tire-linearity gap at which the estimate leans "
+                                 "half on the kinematic (sensor) path instead of the linear tires", gt=0, le=1)
+    kinematic_check: bool = param(True, "Dimensionless", HARDENED_PREFIX + "add to the reported std how far the "
+                                  "estimate's changes depart from the kinematic d(beta)/dt = a_y/v_x - r "
+                                  "(KinematicCheck)")
+    kinematic_tol: float = param(0.02, "Angle", HARDENED_PREFIX + "departure from the kinematics that sensor noise "
+                                 "and roll explain (KinematicCheck)", ge=0, le=1)
+    kinematic_tau: float = param(2.0, "Time", HARDENED_PREFIX + "time constant of the high-pass filter of "
+                                 "KinematicCheck (offsets slower than this drop out)", gt=0, le=60)
 
 
 def model_sideslip_std(vehicle: VehicleParams, ay: float, stiffness_error: float) -> float:
