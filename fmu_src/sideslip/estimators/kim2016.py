@@ -152,12 +152,9 @@ class Kim2016SteeringEKF(ProfiledEstimator):
         cfg = self.config
         self.model = BicycleModel.from_vehicle(self.vehicle, cfg.mu, nominal=True)
         if self.hardened:
-            self.kf = KalmanFilter([0.0, 0.0, 0.0, 0.0], np.diag([1e-4, 1e-2, 1e-4, cfg.bias_std0 ** 2]))
-            self._Q = np.diag([cfg.q_beta, cfg.q_gamma, cfg.q_delta, cfg.q_bias])
-            self._nis = InnovationMonitor(max(1, int(round(1.0 / self.Ts))), cfg.nis_limit)
-            self._trust = ModelTrust(self.vehicle, self.Ts, cfg)
+            self._hardened_init()
         else:
-            self.kf = KalmanFilter([0.0, 0.0, 0.0], np.diag([1e-4, 1e-2, 1e-4]))
+            self.kf = KalmanFilter([0.0, 0.0, 0.0], np.diag([1e-4, 1e-2, 1e-4]))           # eq 16
             self._Q = np.diag([cfg.q_beta, cfg.q_gamma, cfg.q_delta])
         self._R = np.diag([cfg.sigma_ay ** 2, cfg.sigma_gamma ** 2])
         self.bias = 0.0
@@ -181,11 +178,8 @@ class Kim2016SteeringEKF(ProfiledEstimator):
         kf = self.kf
         F = kim_F(kf.x, vx, model, ts)
         H = kim_H(vx, model)
-        if self.hardened:                      # the gyro offset: constant in the model, r_m = gamma + b_g
-            F = np.pad(F, ((0, 1), (0, 1)))
-            F[St.BG, St.BG] = 1.0
-            H = np.pad(H, ((0, 0), (0, 1)))
-            H[1, St.BG] = 1.0
+        if self.hardened:
+            F, H = self._hardened_gyro_offset(F, H)
         kf.predict(F @ kf.x, F, self._Q)                   # eq 18 (linear for a given v_x)
         nis = kf.update(np.array([u[I.AY_M], u[I.YAW_RATE_M]]) - H @ kf.x, H, self._R)
         x = kf.x
@@ -194,15 +188,7 @@ class Kim2016SteeringEKF(ProfiledEstimator):
         self.vy = vx * math.tan(self.beta)
         self.valid = True
         if self.hardened:
-            self.bias = float(x[St.BG])
-            self._nis.add(nis, 2)
-            # the steering sensor's angle: the estimated one bends to whatever the linear tires need
-            r_true = u[I.YAW_RATE_M] - self.bias
-            self._trust.check_kinematics(self.beta, vx, r_true, u[I.AY_M])
-            model_std = self._trust.apply(kf.P, St.BETA, vx, r_true, u[I.DELTA_M], u[I.AY_M])
-            self.beta_std = math.hypot(kf.std(St.BETA) * self._nis.inflation(),
-                                       model_std + self._trust.kinematic_sigma)
-            self.valid = self._nis.consistent
+            self._hardened_uncertainty(u, vx, nis)
 
         # steering-sensor residual test
         self.residual = self._lpf * self.residual + (1.0 - self._lpf) * (u[I.DELTA_M] - self.delta)
@@ -213,3 +199,32 @@ class Kim2016SteeringEKF(ProfiledEstimator):
             self.fault = True
         elif not cfg.fault_latch:
             self.fault = False
+
+    # ---------------------------------------------------------------- hardened profile (module docstring)
+    def _hardened_init(self) -> None:
+        cfg = self.config
+        self.kf = KalmanFilter([0.0, 0.0, 0.0, 0.0], np.diag([1e-4, 1e-2, 1e-4, cfg.bias_std0 ** 2]))
+        self._Q = np.diag([cfg.q_beta, cfg.q_gamma, cfg.q_delta, cfg.q_bias])
+        self._nis = InnovationMonitor(max(1, int(round(1.0 / self.Ts))), cfg.nis_limit)
+        self._trust = ModelTrust(self.vehicle, self.Ts, cfg)
+
+    @staticmethod
+    def _hardened_gyro_offset(F: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The gyro offset as a state: constant in the model, ``r_m = gamma + b_g``."""
+        F = np.pad(F, ((0, 1), (0, 1)))
+        F[St.BG, St.BG] = 1.0
+        H = np.pad(H, ((0, 0), (0, 1)))
+        H[1, St.BG] = 1.0
+        return F, H
+
+    def _hardened_uncertainty(self, u, vx: float, nis: float) -> None:
+        """The innovations' consistency and the linear-tire checks in the reported std; valid while consistent."""
+        I, kf = self.In, self.kf
+        self.bias = float(kf.x[St.BG])
+        self._nis.add(nis, 2)
+        # the steering sensor's angle: the estimated one bends to whatever the linear tires need
+        r_true = u[I.YAW_RATE_M] - self.bias
+        self._trust.check_kinematics(self.beta, vx, r_true, u[I.AY_M])
+        model_std = self._trust.apply(kf.P, St.BETA, vx, r_true, u[I.DELTA_M], u[I.AY_M])
+        self.beta_std = math.hypot(kf.std(St.BETA) * self._nis.inflation(), model_std + self._trust.kinematic_sigma)
+        self.valid = self._nis.consistent

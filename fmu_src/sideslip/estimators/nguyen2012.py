@@ -51,7 +51,7 @@ sensors and vehicles other than the paper's, each with the failure it answers:
   has ``sigma_v / v`` of noise on top of the receiver's ``sigma_course``; below ``course_speed`` the
   course is not used.
 * **Truthful uncertainty and validity**: ``beta_hat_std`` is inflated by the course innovations'
-  consistency (:class:`~sideslip.estimators.model_trust.InnovationMonitor`) and adds the linear tires'
+  consistency (:class:`~sideslip.estimators.kalman.InnovationMonitor`) and adds the linear tires'
   model error; beyond their range the sideslip's variance is raised
   (:class:`~sideslip.estimators.model_trust.ModelTrust`, which needs the lateral acceleration: the
   input ``ay_m``, unused as published); ``valid`` is false until the heading has been set, while the
@@ -174,7 +174,7 @@ class Nguyen2012DACMRKF(ProfiledEstimator):
         self.hardened = self.hardened and MODES[cfg.mode] > St.PSI      # the SRKF has no course to harden with
         self.bias = 0.0
         if self.hardened:
-            self._init_hardened()
+            self._hardened_init()
             return
         self.n = n = MODES[cfg.mode]
         self.model = BicycleModel.from_vehicle(self.vehicle, cfg.mu, nominal=True)
@@ -195,34 +195,29 @@ class Nguyen2012DACMRKF(ProfiledEstimator):
         return (wrap_angle(self.yaw), self.d1, self.d2, self.bias, self._latency.value if self.hardened else 0.0)
 
     def _sample(self, u):
-        if self.hardened:
-            self._sample_hardened(u)
-            return
         I, cfg = self.In, self.config
         vx = self.speed(u)
         self.vx = vx
         if vx < cfg.v_min:                      # eqs 1-2 divide by v_x: hold
             self.valid = False
-            self.yaw_rate = u[I.YAW_RATE_M]
+            self.yaw_rate = u[I.YAW_RATE_M] - self.bias
             return
-        kf = self.kf
+        kf, n = self.kf, self.n
         F, FG = self._matrices(vx)
-        xu, n = self._xu, self.n
+        xu = self._xu
         xu[:n] = kf.x
         xu[n], xu[n + 1] = u[I.DELTA_M], u[I.MZ_CMD]
+        if self.hardened:
+            self._hardened_predict(u, vx, FG.dot(xu), F)
+            if not self._hardened_gyro_update(u):
+                return
+            self._hardened_course_update(u, vx)
+            self._hardened_outputs(u, vx)
+            return
         kf.predict(FG.dot(xu), F, self._Q)                                    # eq 14: K_nd h + G_nd u
         kf.update_state(St.GAMMA, u[I.YAW_RATE_M] - kf.x.item(St.GAMMA), self._r_gyro)  # every T_c
         if self.n > St.PSI and u[I.GPS_FRESH] and u[I.GPS_VALID]:          # every T_s: the course
-            course = u[I.GPS_COURSE]
-            if not self._heading_set:            # first fix: psi = c - beta
-                kf.x[St.PSI] = course - kf.x[St.BETA]
-                kf.P[St.PSI, :] = kf.P[:, St.PSI] = 0.0
-                kf.P[St.PSI, St.PSI] = self._r_course + kf.P[St.BETA, St.BETA]
-                self._heading_set = True
-            else:
-                innovation = math.remainder(course - kf.x[St.PSI] - kf.x[St.BETA], 2.0 * math.pi)
-                kf.update_scalar(innovation, self._h_course, self._r_course)
-            kf.x[St.PSI] = math.remainder(kf.x[St.PSI], 2.0 * math.pi)
+            self._course_update(u[I.GPS_COURSE])
         x = kf.x.tolist()
         self.beta, self.yaw_rate = x[St.BETA], x[St.GAMMA]
         self.beta_std = math.sqrt(kf.P.item(0))         # P[BETA, BETA]
@@ -233,8 +228,21 @@ class Nguyen2012DACMRKF(ProfiledEstimator):
             self.d1, self.d2 = x[St.D1], x[St.D2]
         self.valid = True
 
+    def _course_update(self, course: float) -> None:
+        """The GPS course ``c = psi + beta`` (eq 17, second row); the first fix sets the heading, ``psi = c - beta``."""
+        kf = self.kf
+        if not self._heading_set:
+            kf.x[St.PSI] = course - kf.x[St.BETA]
+            kf.P[St.PSI, :] = kf.P[:, St.PSI] = 0.0
+            kf.P[St.PSI, St.PSI] = self._r_course + kf.P[St.BETA, St.BETA]
+            self._heading_set = True
+        else:
+            innovation = math.remainder(course - kf.x[St.PSI] - kf.x[St.BETA], 2.0 * math.pi)
+            kf.update_scalar(innovation, self._h_course, self._r_course)
+        kf.x[St.PSI] = math.remainder(kf.x[St.PSI], 2.0 * math.pi)
+
     # ---------------------------------------------------------------- hardened profile
-    def _init_hardened(self):
+    def _hardened_init(self):
         cfg, ts = self.config, self.Ts
         self.model = BicycleModel.from_vehicle(self.vehicle, cfg.mu, nominal=True)
         dac = MODES[cfg.mode] == 5
@@ -270,24 +278,14 @@ class Nguyen2012DACMRKF(ProfiledEstimator):
     def _restart(self):
         """Back to the initial state: a diverged filter (e.g. after inputs at their limits) starts over."""
         latency = self._latency
-        self._init_hardened()
+        self._hardened_init()
         self._latency = latency
 
-    def _sample_hardened(self, u):
-        I, cfg, ix = self.In, self.config, self._ix
-        vx = self.speed(u)
-        self.vx = vx
+    def _hardened_predict(self, u, vx: float, x_pred: np.ndarray, F: np.ndarray) -> None:
+        """The prediction blended towards the kinematic one beyond the tires' linear range, and the model's
+        sideslip error as process noise."""
+        I, cfg, ix, kf, ts = self.In, self.config, self._ix, self.kf, self.Ts
         r_m = u[I.YAW_RATE_M]
-        if vx < cfg.v_min:
-            self.valid = False
-            self.yaw_rate = r_m - self.bias
-            return
-        kf, n, ts = self.kf, self.n, self.Ts
-        F, FG = self._matrices(vx)
-        xu = self._xu
-        xu[:n] = kf.x
-        xu[n], xu[n + 1] = u[I.DELTA_M], u[I.MZ_CMD]
-        x_pred = FG.dot(xu)
         # beyond the tires' linear range the model's sideslip and yaw equations are wrong: the predictions
         # blend towards the kinematic ones (beta' = a_y / v_x - gamma, gamma held) by the linearity gap
         gap = self._trust.linearity.update(vx, r_m - kf.x[ix[St.BG]], u[I.DELTA_M], u[I.AY_M], u[I.MZ_CMD])
@@ -310,37 +308,55 @@ class Nguyen2012DACMRKF(ProfiledEstimator):
             Q[b, b] += w * (gap * gap) * ts           # what the model could not explain, per second
             Q[g, g] += w * (cfg.yaw_acc_std * ts) ** 2
         kf.predict(x_pred, F, Q)
+
+    def _hardened_gyro_update(self, u) -> bool:
+        """The yaw rate with the gyro offset, ``r_m = gamma + b_g``; False (and the filter restarted) when its
+        innovations are inconsistent: a diverged filter."""
+        ix, kf = self._ix, self.kf
         x = kf.x
-        self._yaw_nis.add(kf.update_scalar(r_m - x[ix[St.GAMMA]] - x[ix[St.BG]], self._h_gyro, cfg.sigma_gyro ** 2))
+        r_m = u[self.In.YAW_RATE_M]
+        self._yaw_nis.add(kf.update_scalar(r_m - x[ix[St.GAMMA]] - x[ix[St.BG]], self._h_gyro,
+                                           self.config.sigma_gyro ** 2))
         if not self._yaw_nis.consistent:
             self._restart()
             self.valid = False
-            return
+            return False
+        return True
+
+    def _hardened_course_update(self, u, vx: float) -> None:
+        """The course against ``psi + beta`` of the GPS delay earlier, its noise from the speed and the delay."""
+        I, cfg, ix, kf = self.In, self.config, self._ix, self.kf
+        r_m = u[I.YAW_RATE_M]
         x = kf.x
         self._course_hist.push(x[ix[St.PSI]] + x[ix[St.BETA]])
         self._latency.push(r_m - x[ix[St.BG]], x[ix[St.BETA]])
         gps_ok = u[I.GPS_VALID] != 0.0
         self._outage = 0.0 if gps_ok else self._outage + self.Ts
-        if u[I.GPS_FRESH] and gps_ok and vx > cfg.course_speed:
-            course = u[I.GPS_COURSE]
-            r_course = cfg.sigma_course ** 2 + (cfg.sigma_gps_velocity / vx) ** 2 + \
-                self._latency.course_variance(r_m - x[ix[St.BG]])
-            if not self._heading_set:            # first fix: psi = c - beta, the stored predictions moved with it
-                psi0 = course - x[ix[St.BETA]]
-                self._course_hist.correct(psi0 - x[ix[St.PSI]])
-                kf.x[ix[St.PSI]] = psi0
-                i = ix[St.PSI]
-                kf.P[i, :] = kf.P[:, i] = 0.0
-                kf.P[i, i] = r_course + kf.P[ix[St.BETA], ix[St.BETA]]
-                self._heading_set = True
-            else:
-                self._latency.add_fix(course, r_m - x[ix[St.BG]])
-                predicted = self._course_hist.delayed(self._latency.lag(self.Ts)).item(0)
-                before = x[ix[St.PSI]] + x[ix[St.BETA]]
-                innovation = math.remainder(course - predicted, 2.0 * math.pi)
-                self._course_nis.add(kf.update_scalar(innovation, self._h_course, r_course))
-                self._course_hist.correct(kf.x[ix[St.PSI]] + kf.x[ix[St.BETA]] - before)
-            kf.x[ix[St.PSI]] = math.remainder(kf.x[ix[St.PSI]], 2.0 * math.pi)
+        if not (u[I.GPS_FRESH] and gps_ok and vx > cfg.course_speed):
+            return
+        course = u[I.GPS_COURSE]
+        r_course = cfg.sigma_course ** 2 + (cfg.sigma_gps_velocity / vx) ** 2 + \
+            self._latency.course_variance(r_m - x[ix[St.BG]])
+        if not self._heading_set:            # first fix: psi = c - beta, the stored predictions moved with it
+            psi0 = course - x[ix[St.BETA]]
+            self._course_hist.correct(psi0 - x[ix[St.PSI]])
+            kf.x[ix[St.PSI]] = psi0
+            i = ix[St.PSI]
+            kf.P[i, :] = kf.P[:, i] = 0.0
+            kf.P[i, i] = r_course + kf.P[ix[St.BETA], ix[St.BETA]]
+            self._heading_set = True
+        else:
+            self._latency.add_fix(course, r_m - x[ix[St.BG]])
+            predicted = self._course_hist.delayed(self._latency.lag(self.Ts)).item(0)
+            before = x[ix[St.PSI]] + x[ix[St.BETA]]
+            innovation = math.remainder(course - predicted, 2.0 * math.pi)
+            self._course_nis.add(kf.update_scalar(innovation, self._h_course, r_course))
+            self._course_hist.correct(kf.x[ix[St.PSI]] + kf.x[ix[St.BETA]] - before)
+        kf.x[ix[St.PSI]] = math.remainder(kf.x[ix[St.PSI]], 2.0 * math.pi)
+
+    def _hardened_outputs(self, u, vx: float) -> None:
+        """The estimate, with the std inflated by the course innovations' consistency and the kinematic check."""
+        I, cfg, ix, kf = self.In, self.config, self._ix, self.kf
         x = kf.x.tolist()
         self.beta, self.bias = x[ix[St.BETA]], x[ix[St.BG]]
         self.yaw_rate = x[ix[St.GAMMA]]

@@ -337,13 +337,7 @@ class Park2018Observer(ProfiledEstimator):
         self.beta_bic = self.beta_kin = self.beta_ol = 0.0
         self.delay = cfg.gps_delay
         if self.hardened:
-            self._straight_for = 0.0
-            self._speed_ratio = 1.0
-            self._kin_hist = DelayLine(int(round(0.5 / self.Ts)) + 2, 2)       # predicted (v_e, v_n)
-            self._course_delay = CourseDelay(self.Ts, 0.5)
-            self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
-            self._trust = ModelTrust(v, self.Ts, cfg)
-            self._outage = 0.0
+            self._hardened_init()
 
     def _extras(self) -> tuple:
         return (wrap_angle(self.yaw), self.Cf, self.Cr, self.K, self.b_x, self.b_y, self.b_r, self.b_R,
@@ -352,7 +346,6 @@ class Park2018Observer(ProfiledEstimator):
     # ---------------------------------------------------------------- one sample
     def _sample(self, u):
         I, cfg, v, ts = self.In, self.config, self.vehicle, self.Ts
-        t = self.t
         ax_m, ay_m, r_m, delta = u[I.AX_M], u[I.AY_M], u[I.YAW_RATE_M], u[I.DELTA_M]
         vw_m = self.speed(u)
         gps_ok = u[I.GPS_VALID] != 0.0
@@ -360,51 +353,8 @@ class Park2018Observer(ProfiledEstimator):
         vs = u[I.GPS_SPEED]
         mu = u[I.MU] if cfg.use_mu_input else cfg.mu_fixed
         mu = min(max(mu, 0.05), 1.5)
-
-        # ---- signal conditioning: steering rate, GPS acceleration (eq 5)
-        if self._delta_prev is not None:
-            self._delta_rate = lowpass(self._delta_rate, (delta - self._delta_prev) / ts, ts, 5.0)
-        self._delta_prev = delta
-        if fresh:
-            if self._vs_prev is not None and t > self._vs_prev[0]:
-                dt = t - self._vs_prev[0]
-                self._vs_rate = lowpass(self._vs_rate, (vs - self._vs_prev[1]) / dt, dt, cfg.vs_lpf)
-            self._vs_prev = (t, vs)
-        elif not gps_ok:
-            self._vs_prev = None
-        self._ax_lp = lowpass(self._ax_lp, ax_m, ts, cfg.vs_lpf)
-
-        # ---- sensor offset compensator (eqs 2-7)
-        eps = abs(delta) <= cfg.delta_th and abs(self._delta_rate) <= cfg.delta_rate_th      # eq 2
-        if self.hardened:          # straight by the yaw rate, held for a while; slower gains, bounded offsets
-            # spin-out from the filtered ratio of the radius-compensated wheel speed to the GPS speed:
-            # acos(v_w / v_s) > 0.1 rad is a 0.5 % ratio, tripped by GPS speed noise or a radius error
-            if gps_ok and vs > cfg.v_min:
-                ratio = vw_m * (1.0 + self.b_R / v.R_w) / vs
-                self._speed_ratio = lowpass(self._speed_ratio, ratio, ts, 1.0)
-            spin = abs(1.0 - self._speed_ratio) > 1.0 - math.cos(cfg.beta_th) + 0.02
-            straight = abs(r_m + self.b_r) < cfg.r_straight      # not the steering rate: its noise breaks the hold
-            self._straight_for = self._straight_for + ts if straight and not spin else 0.0
-            eps = self._straight_for >= cfg.straight_hold
-            gains = (cfg.k_hardened,) * 4
-        else:
-            spin = gps_ok and vs > cfg.v_min and abs(math.acos(min(max(vw_m / vs, -1.0), 1.0))) > cfg.beta_th
-            gains = (cfg.k_r, cfg.k_y, cfg.k_x, cfg.k_w)
-        if eps and not spin:
-            k_r, k_y, k_x, k_w = gains
-            self._settled += ts
-            self.b_r += ts * (-k_r * (self.b_r + r_m))                                         # eq 3
-            self.b_y += ts * (-k_y * (self.b_y + ay_m))                                        # eq 4
-            if gps_ok:
-                # eq 5, with a_x,m through the same low-pass as d(v_s)/dt so that their lags cancel
-                self.b_x += ts * (-k_x * (self.b_x - (self._vs_rate - self._ax_lp)))
-                if abs(self._vs_rate) <= cfg.vs_rate_th and vw_m > cfg.v_min:                  # eps_w of eq 7
-                    self.b_R += ts * (-k_w * (self.b_R - (vs / vw_m - 1.0) * v.R_w))           # eq 7
-            if self.hardened:
-                self.b_r = min(max(self.b_r, -cfg.offset_r_max), cfg.offset_r_max)
-                self.b_y = min(max(self.b_y, -cfg.offset_ay_max), cfg.offset_ay_max)
-                self.b_x = min(max(self.b_x, -cfg.offset_ax_max), cfg.offset_ax_max)
-                self.b_R = min(max(self.b_R, -0.05 * v.R_w), 0.05 * v.R_w)
+        self._condition(delta, ax_m, vs, gps_ok, fresh)
+        steady = self._compensate_offsets(ay_m, r_m, delta, vw_m, vs, gps_ok)
         r = r_m + self.b_r
         ay = ay_m + self.b_y
         if cfg.roll_compensation:
@@ -423,7 +373,7 @@ class Park2018Observer(ProfiledEstimator):
             self.vx = vw
             return
 
-        # ---- axle loads (eqs 14-15 re-derived: front static load m g l_r / l) and forces (eq 19)
+        # axle loads (eqs 14-15 re-derived: front static load m g l_r / l) and forces (eq 19)
         m, iz, lf, lr = self._p
         l = lf + lr
         fzf = m * (GRAVITY * lr - v.h_cg * ax) / l
@@ -432,9 +382,71 @@ class Park2018Observer(ProfiledEstimator):
         cf0_axle, cr0_axle = v.nominal_cornering_stiffness(mu)
         cf0, cr0 = cf0_axle / self._fz_static[0], cr0_axle / self._fz_static[1]   # C_0n for this mu
 
-        # ---- bicycle-model EKF (eqs 16-22)
-        bic, p = self.bic, self._p
-        ub = (fzf, fzr, delta, vw, cf0, cr0)
+        dcf, dcr = self._bicycle_ekf((fzf, fzr, delta, vw, cf0, cr0), fyf, fyr, r, ay, steady)
+        vy_bic = vw * math.tan(self.beta_bic)
+        kin = self._kinematic_ekf(u, fresh, vs, (ax, ay, r), vw, vy_bic)
+        vx_kin, vy_kin = kin.x.tolist()[:2] if kin is not None else (vw, vy_bic)
+
+        # open-loop estimator of the figures: kinematic model, no GPS, v_x from the wheels
+        self._vy_ol += ts * (-r * vw + ay)
+        self.beta_ol = math.atan2(self._vy_ol, vw)
+
+        # weighting factor (eqs 30-32; eq 32 re-derived like eqs 14 and 19)
+        nf, nr = fyf / fzf, fyr / fzr
+        self.K = weighting_factor(dcf / cf0, dcr / cr0, nf, nr, mu, cfg.tau_f, cfg.eps_f, cfg.tau_r,
+                                  cfg.eps_r) if kin is not None else 0.0
+        self._integrated_observer((ax, ay, delta, self.Cf, self.Cr, self.K), vw, vx_kin, vy_bic, vy_kin, r)
+        if self.hardened:
+            self._hardened_uncertainty(kin, gps_ok, vx_kin, vy_kin, r, ay_m)
+
+    def _condition(self, delta: float, ax_m: float, vs: float, gps_ok: bool, fresh: bool) -> None:
+        """Signal conditioning: the steering rate and the GPS acceleration ``d(v_s)/dt`` (eq 5), and ``a_x,m``
+        through the same low-pass."""
+        cfg, ts, t = self.config, self.Ts, self.t
+        if self._delta_prev is not None:
+            self._delta_rate = lowpass(self._delta_rate, (delta - self._delta_prev) / ts, ts, 5.0)
+        self._delta_prev = delta
+        if fresh:
+            if self._vs_prev is not None and t > self._vs_prev[0]:
+                dt = t - self._vs_prev[0]
+                self._vs_rate = lowpass(self._vs_rate, (vs - self._vs_prev[1]) / dt, dt, cfg.vs_lpf)
+            self._vs_prev = (t, vs)
+        elif not gps_ok:
+            self._vs_prev = None
+        self._ax_lp = lowpass(self._ax_lp, ax_m, ts, cfg.vs_lpf)
+
+    def _compensate_offsets(self, ay_m: float, r_m: float, delta: float, vw_m: float, vs: float,
+                            gps_ok: bool) -> bool:
+        """The sensor offset compensator (eqs 2-7); returns whether the car drives straight and does not spin
+        (the offsets adapted)."""
+        cfg, v, ts = self.config, self.vehicle, self.Ts
+        if self.hardened:
+            straight, spin = self._hardened_straight(r_m, vw_m, vs, gps_ok)
+            gains = (cfg.k_hardened,) * 4
+        else:
+            straight = abs(delta) <= cfg.delta_th and abs(self._delta_rate) <= cfg.delta_rate_th      # eq 2
+            spin = gps_ok and vs > cfg.v_min and abs(math.acos(min(max(vw_m / vs, -1.0), 1.0))) > cfg.beta_th
+            gains = (cfg.k_r, cfg.k_y, cfg.k_x, cfg.k_w)
+        if not straight or spin:
+            return False
+        k_r, k_y, k_x, k_w = gains
+        self._settled += ts
+        self.b_r += ts * (-k_r * (self.b_r + r_m))                                         # eq 3
+        self.b_y += ts * (-k_y * (self.b_y + ay_m))                                        # eq 4
+        if gps_ok:
+            # eq 5, with a_x,m through the same low-pass as d(v_s)/dt so that their lags cancel
+            self.b_x += ts * (-k_x * (self.b_x - (self._vs_rate - self._ax_lp)))
+            if abs(self._vs_rate) <= cfg.vs_rate_th and vw_m > cfg.v_min:                  # eps_w of eq 7
+                self.b_R += ts * (-k_w * (self.b_R - (vs / vw_m - 1.0) * v.R_w))           # eq 7
+        if self.hardened:
+            self._hardened_bound_offsets()
+        return True
+
+    def _bicycle_ekf(self, ub: tuple, fyf: float, fyr: float, r: float, ay: float, steady: bool) -> tuple:
+        """The bicycle-model EKF (eqs 16-22) with the inputs ``ub = (F_zf, F_zr, delta_f, v_x, C_f0n, C_r0n)`` and
+        the measurements ``[F_yf, F_yr, r]``; returns the bounded ``dC_f,n``, ``dC_r,n``."""
+        cfg, ts, bic, p = self.config, self.Ts, self.bic, self._p
+        fzf, fzr, delta, vw, cf0, cr0 = ub
         xb = bic.x.tolist()                    # the models compute on Python floats (cheaper than numpy scalars)
         bic.predict(bicycle_f(xb, ub, p, ts), bicycle_F(xb, ub, p, ts), self._Q_bic)
         xb = bic.x.tolist()
@@ -442,7 +454,7 @@ class Park2018Observer(ProfiledEstimator):
         if self.hardened:
             self._trust.apply(bic.P, Bic.BETA, vw, r, delta, ay)     # its stiffness states carry the rest
         beta_bic, _, dcf, dcr = bic.x.tolist()
-        if eps and not spin and abs(ay) < 0.5:  # steady straight driving: dC_n reset (Section 6.2.2)
+        if steady and abs(ay) < 0.5:           # steady straight driving: dC_n reset (Section 6.2.2)
             dcf = dcr = 0.0
         # dC_n is the drop of the slope as a tire leaves its linear range (Fig. 3): bounded to
         # [-(1 - c_min) C_0n, dc_max C_0n]; the upper bound also stops the drift along the direction
@@ -452,11 +464,14 @@ class Park2018Observer(ProfiledEstimator):
         bic.x[Bic.DCF], bic.x[Bic.DCR] = dcf, dcr
         self.beta_bic = beta_bic
         self.Cf, self.Cr = (cf0 + dcf) * fzf, (cr0 + dcr) * fzr
-        vy_bic = vw * math.tan(self.beta_bic)
+        return dcf, dcr
 
-        # ---- kinematic-model EKF (eqs 25-29); open loop while the GPS is out
+    def _kinematic_ekf(self, u, fresh: bool, vs: float, uk: tuple, vw: float, vy_bic: float) -> KalmanFilter | None:
+        """The kinematic-model EKF (eqs 25-29) with ``uk = (a_x, a_y, r)``, started at the first GPS fix fast enough
+        for a heading; open loop while the GPS is out.  Returns the filter (None before it starts)."""
+        I, cfg, ts = self.In, self.config, self.Ts
         kin = self.kin
-        settled = self._settled >= cfg.settle_time or t >= 2.5 * cfg.settle_time
+        settled = self._settled >= cfg.settle_time or self.t >= 2.5 * cfg.settle_time
         if kin is None and fresh and vs > cfg.heading_speed and settled:
             # heading from the GPS course minus the bicycle sideslip; its uncertainty is the course
             # noise sigma_v / v_s plus heading_std0 (sideslip error, gyro offset not yet converged)
@@ -464,50 +479,34 @@ class Park2018Observer(ProfiledEstimator):
             var_psi = cfg.r_kin_gps / (vs * vs) + cfg.heading_std0 ** 2
             kin = self.kin = KalmanFilter([vw, vy_bic, course - self.beta_bic],
                                           np.diag([cfg.r_kin_vw, cfg.r_kin_gps, var_psi]))
-        if kin is not None:
-            uk = (ax, ay, r)
-            xk = kin.x.tolist()
-            kin.predict(kinematic_f(xk, uk, ts), kinematic_F(xk, uk, ts), self._Q_kin)
-            kin.update_scalar(vw - kin.x[Kin.VX], self._h_vw, cfg.r_kin_vw)
+        if kin is None:
+            return None
+        r = uk[2]
+        xk = kin.x.tolist()
+        kin.predict(kinematic_f(xk, uk, ts), kinematic_F(xk, uk, ts), self._Q_kin)
+        kin.update_scalar(vw - kin.x[Kin.VX], self._h_vw, cfg.r_kin_vw)
+        if self.hardened:
+            self._kin_hist.push(kinematic_h(kin.x.tolist())[1:])
+            self._course_delay.push(r)
+        if fresh:
+            z = np.array([u[I.GPS_VE], u[I.GPS_VN]])
             if self.hardened:
-                self._kin_hist.push(kinematic_h(kin.x.tolist())[1:])
-                self._course_delay.push(r)
-            if fresh:
-                z = np.array([u[I.GPS_VE], u[I.GPS_VN]])
+                self._hardened_fix(kin, z, r, vs)
+            else:
                 xk = kin.x.tolist()
-                if self.hardened:            # the fix against the velocity of `delay` ago (module docstring)
-                    if cfg.identify_delay and vs > cfg.heading_speed:
-                        self._course_delay.add_fix(math.atan2(z[1], z[0]), r)
-                        d = self._course_delay.estimate()
-                        if d is not None:
-                            self.delay = d
-                    before = kinematic_h(xk)[1:]
-                    self._gps_nis.add(kin.update(z - self._kin_hist.delayed(int(round(self.delay / ts))),
-                                                 kinematic_H(xk)[1:], self._R_gps), 2)
-                    self._kin_hist.correct(kinematic_h(kin.x.tolist())[1:] - before)
-                else:
-                    kin.update(z - kinematic_h(xk)[1:], kinematic_H(xk)[1:], self._R_gps)
-            kin.x[Kin.PSI] = math.remainder(kin.x[Kin.PSI], 2.0 * math.pi)
-            vx_kin, vy_kin, self.yaw = kin.x.tolist()
-            self.beta_kin = math.atan2(vy_kin, vx_kin)
-        else:
-            vx_kin, vy_kin = vw, vy_bic
+                kin.update(z - kinematic_h(xk)[1:], kinematic_H(xk)[1:], self._R_gps)
+        kin.x[Kin.PSI] = math.remainder(kin.x[Kin.PSI], 2.0 * math.pi)
+        vx_kin, vy_kin, self.yaw = kin.x.tolist()
+        self.beta_kin = math.atan2(vy_kin, vx_kin)
+        return kin
 
-        # ---- open-loop estimator of the figures: kinematic model, no GPS, v_x from the wheels
-        self._vy_ol += ts * (-r * vw + ay)
-        self.beta_ol = math.atan2(self._vy_ol, vw)
-
-        # ---- weighting factor (eqs 30-32; eq 32 re-derived like eqs 14 and 19)
-        nf, nr = fyf / fzf, fyr / fzr
-        self.K = weighting_factor(dcf / cf0, dcr / cr0, nf, nr, mu, cfg.tau_f, cfg.eps_f, cfg.tau_r,
-                                  cfg.eps_r) if kin is not None else 0.0
-        k = self.K
-
-        # ---- integrated observer (eqs 33-36), fed forward only
+    def _integrated_observer(self, ui: tuple, vw: float, vx_kin: float, vy_bic: float, vy_kin: float,
+                             r: float) -> None:
+        """The integrated observer (eqs 33-36), fed forward only, with ``ui = (a_x, a_y, delta_f, C_f, C_r, K)``."""
+        ts, p, k = self.Ts, self._p, ui[5]
         intg = self.intg
         if intg is None:
             intg = self.intg = KalmanFilter([vw, vy_bic, r], np.diag([0.01, 0.01, 1e-4]))
-        ui = (ax, ay, delta, self.Cf, self.Cr, k)
         xi = intg.x.tolist()
         intg.predict(integrated_f(xi, ui, p, ts), integrated_F(xi, ui, p, ts), self._Q_int)
         z = np.array([(1 - k) * vw + k * vx_kin, (1 - k) * vy_bic + k * vy_kin, r])      # eq 34
@@ -518,16 +517,64 @@ class Park2018Observer(ProfiledEstimator):
         P = intg.P.tolist()
         self.beta_std = beta_std(vx_i, vy_i, P[Intg.VX][Intg.VX], P[Intg.VY][Intg.VY], P[Intg.VX][Intg.VY])
         self.valid = True
-        if self.hardened:                    # the sub-filters' own uncertainty, weighted like their estimates
-            self._outage = 0.0 if gps_ok else self._outage + ts
-            var_bic = bic.P.item(Bic.BETA, Bic.BETA)
-            if kin is not None:
-                Pk = kin.P
-                var_kin = beta_std(vx_kin, vy_kin, Pk.item(0, 0), Pk.item(1, 1), Pk.item(0, 1)) ** 2 * \
-                    self._gps_nis.inflation() ** 2
-            else:
-                var_kin = var_bic
-            self._trust.check_kinematics(self.beta, vx_i, r, ay_m)
-            self.beta_std = math.hypot(math.sqrt((1 - k) ** 2 * var_bic + k * k * var_kin),
-                                       self._trust.kinematic_sigma)
-            self.valid = kin is not None and self._outage <= cfg.gps_coast and self._gps_nis.consistent
+
+    # ---------------------------------------------------------------- hardened profile (module docstring)
+    def _hardened_init(self) -> None:
+        cfg = self.config
+        self._straight_for = 0.0
+        self._speed_ratio = 1.0
+        self._kin_hist = DelayLine(int(round(0.5 / self.Ts)) + 2, 2)       # predicted (v_e, v_n)
+        self._course_delay = CourseDelay(self.Ts, 0.5)
+        self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
+        self._trust = ModelTrust(self.vehicle, self.Ts, cfg)
+        self._outage = 0.0
+
+    def _hardened_straight(self, r_m: float, vw_m: float, vs: float, gps_ok: bool) -> tuple[bool, bool]:
+        """Straight driving by the yaw rate alone, held for ``straight_hold``; spin-out from the filtered ratio of
+        the radius-compensated wheel speed to the GPS speed (``acos(v_w / v_s) > 0.1 rad`` is a 0.5 % ratio,
+        tripped by GPS speed noise or a radius error); returns ``(straight, spin)``."""
+        cfg, ts = self.config, self.Ts
+        if gps_ok and vs > cfg.v_min:
+            ratio = vw_m * (1.0 + self.b_R / self.vehicle.R_w) / vs
+            self._speed_ratio = lowpass(self._speed_ratio, ratio, ts, 1.0)
+        spin = abs(1.0 - self._speed_ratio) > 1.0 - math.cos(cfg.beta_th) + 0.02
+        straight = abs(r_m + self.b_r) < cfg.r_straight      # not the steering rate: its noise breaks the hold
+        self._straight_for = self._straight_for + ts if straight and not spin else 0.0
+        return self._straight_for >= cfg.straight_hold, spin
+
+    def _hardened_bound_offsets(self) -> None:
+        """The offsets within what an automotive sensor's offset can be."""
+        cfg, R_w = self.config, self.vehicle.R_w
+        self.b_r = min(max(self.b_r, -cfg.offset_r_max), cfg.offset_r_max)
+        self.b_y = min(max(self.b_y, -cfg.offset_ay_max), cfg.offset_ay_max)
+        self.b_x = min(max(self.b_x, -cfg.offset_ax_max), cfg.offset_ax_max)
+        self.b_R = min(max(self.b_R, -0.05 * R_w), 0.05 * R_w)
+
+    def _hardened_fix(self, kin: KalmanFilter, z: np.ndarray, r: float, vs: float) -> None:
+        """The fix against the kinematic EKF's velocity of ``delay`` ago, the delay identified while turning."""
+        cfg, ts = self.config, self.Ts
+        xk = kin.x.tolist()
+        if cfg.identify_delay and vs > cfg.heading_speed:
+            self._course_delay.add_fix(math.atan2(z[1], z[0]), r)
+            d = self._course_delay.estimate()
+            if d is not None:
+                self.delay = d
+        before = kinematic_h(xk)[1:]
+        self._gps_nis.add(kin.update(z - self._kin_hist.delayed(int(round(self.delay / ts))),
+                                     kinematic_H(xk)[1:], self._R_gps), 2)
+        self._kin_hist.correct(kinematic_h(kin.x.tolist())[1:] - before)
+
+    def _hardened_uncertainty(self, kin, gps_ok: bool, vx_kin: float, vy_kin: float, r: float, ay_m: float) -> None:
+        """The sub-filters' own uncertainty, weighted like their estimates, the kinematic check, and the validity."""
+        cfg, k = self.config, self.K
+        self._outage = 0.0 if gps_ok else self._outage + self.Ts
+        var_bic = self.bic.P.item(Bic.BETA, Bic.BETA)
+        if kin is not None:
+            Pk = kin.P
+            var_kin = beta_std(vx_kin, vy_kin, Pk.item(0, 0), Pk.item(1, 1), Pk.item(0, 1)) ** 2 * \
+                self._gps_nis.inflation() ** 2
+        else:
+            var_kin = var_bic
+        self._trust.check_kinematics(self.beta, self.vx, r, ay_m)
+        self.beta_std = math.hypot(math.sqrt((1 - k) ** 2 * var_bic + k * k * var_kin), self._trust.kinematic_sigma)
+        self.valid = kin is not None and self._outage <= cfg.gps_coast and self._gps_nis.consistent

@@ -231,10 +231,7 @@ class Pi2011FuzzyEKF(ProfiledEstimator):
                                              cfg.ay_big)
         self.kf = KalmanFilter([0.0, 0.0, 0.0], np.diag([1e-6, 1e4, 1e4]))
         if self.hardened:
-            self._Q = np.diag([cfg.q_beta_hardened, cfg.q_force, cfg.q_force])
-            self._R = np.diag([cfg.r_force_hardened, cfg.r_force_hardened, cfg.r_ay_hardened])
-            self._nis = InnovationMonitor(max(1, int(round(1.0 / self.Ts))), cfg.nis_limit)
-            self._trust = ModelTrust(v, self.Ts, cfg)
+            self._hardened_init()
         else:
             self._Q = np.diag([cfg.q_beta, cfg.q_force, cfg.q_force])
             self._R = np.diag([cfg.r_force, cfg.r_force, cfg.r_ay])
@@ -274,20 +271,15 @@ class Pi2011FuzzyEKF(ProfiledEstimator):
         r_lp = self._r_lp
         dr = g * (r_ref - r_lp) * l / vx * math.copysign(1.0, r_lp)          # eq 31
         a = min(max(self.fuzzy.evaluate(dr, ay), 0.0), 1.0)
-        if self.hardened:            # capped, unless the tires are measured beyond their linear range
-            self._trust.linearity.update(vx, r, delta, ay, mz)
-            a = max(min(a, cfg.alpha_max), self._trust.kinematic_weight(cfg.kinematic_gap))
+        if self.hardened:
+            a = self._hardened_factor(a, vx, r, delta, ay, mz)
         # 3. slip angles of the prior estimate (eqs 27-28), stiffness identifier (eqs 33-36, re-derived)
         beta = float(self.kf.x[St.BETA])
         alpha_f = beta + lf * r / vx - delta
         alpha_r = beta - lr * r / vx
         cf0, cr0 = self._C
-        if self.hardened:            # bounded, and slowed so that a drifting estimate cannot take it along
-            lo, hi, k = cfg.c_min_hardened, 1.3, 1.0 - math.exp(-ts / cfg.c_tau)
-            cf_s = min(max(-fyf_s / alpha_f, lo * cf0), hi * cf0) if abs(alpha_f) > cfg.alpha_min else cf0
-            cr_s = min(max(-fyr_s / alpha_r, lo * cr0), hi * cr0) if abs(alpha_r) > cfg.alpha_min else cr0
-            self._cs = (self._cs[0] + k * (cf_s - self._cs[0]), self._cs[1] + k * (cr_s - self._cs[1]))
-            cf_s, cr_s = self._cs
+        if self.hardened:
+            cf_s, cr_s = self._hardened_stiffness(fyf_s, fyr_s, alpha_f, alpha_r)
         else:
             cf_s = min(max(-fyf_s / alpha_f, cfg.c_min * cf0), cf0) if abs(alpha_f) > cfg.alpha_min else cf0
             cr_s = min(max(-fyr_s / alpha_r, cfg.c_min * cr0), cr0) if abs(alpha_r) > cfg.alpha_min else cr0
@@ -311,12 +303,42 @@ class Pi2011FuzzyEKF(ProfiledEstimator):
         self.beta_std = kf.std(St.BETA)
         self.valid = True
         if self.hardened:
-            self._nis.add(nis, 3)
-            self._trust.check_kinematics(self.beta, vx, r, u[I.AY_M])
-            model_std = self._trust.model_std(ay) + self._trust.kinematic_sigma
-            self.beta_std = math.hypot(kf.std(St.BETA) * self._nis.inflation(), model_std)
-            if abs(self.beta) > cfg.beta_max:          # beyond a car's sideslip: held at the bound, not valid
-                self.beta = kf.x[St.BETA] = math.copysign(cfg.beta_max, self.beta)
-                self.valid = False
-            self.valid = self.valid and self._nis.consistent
+            self._hardened_uncertainty(nis, vx, r, u[I.AY_M], ay)
         self.vy = vx * math.tan(self.beta)
+
+    # ---------------------------------------------------------------- hardened profile (module docstring)
+    def _hardened_init(self) -> None:
+        cfg = self.config
+        self._Q = np.diag([cfg.q_beta_hardened, cfg.q_force, cfg.q_force])
+        self._R = np.diag([cfg.r_force_hardened, cfg.r_force_hardened, cfg.r_ay_hardened])
+        self._nis = InnovationMonitor(max(1, int(round(1.0 / self.Ts))), cfg.nis_limit)
+        self._trust = ModelTrust(self.vehicle, self.Ts, cfg)
+
+    def _hardened_factor(self, a: float, vx: float, r: float, delta: float, ay: float, mz: float) -> float:
+        """The nonlinear factor capped at ``alpha_max``, unless the tires are measured beyond their linear range."""
+        cfg = self.config
+        self._trust.linearity.update(vx, r, delta, ay, mz)
+        return max(min(a, cfg.alpha_max), self._trust.kinematic_weight(cfg.kinematic_gap))
+
+    def _hardened_stiffness(self, fyf_s: float, fyr_s: float, alpha_f: float, alpha_r: float) -> tuple:
+        """The secant stiffness bounded to ``[c_min_hardened, 1.3]`` of the nominal and low-passed with ``c_tau``, so
+        that a drifting estimate cannot take it along."""
+        cfg, (cf0, cr0) = self.config, self._C
+        lo, hi, k = cfg.c_min_hardened, 1.3, 1.0 - math.exp(-self.Ts / cfg.c_tau)
+        cf_s = min(max(-fyf_s / alpha_f, lo * cf0), hi * cf0) if abs(alpha_f) > cfg.alpha_min else cf0
+        cr_s = min(max(-fyr_s / alpha_r, lo * cr0), hi * cr0) if abs(alpha_r) > cfg.alpha_min else cr0
+        self._cs = (self._cs[0] + k * (cf_s - self._cs[0]), self._cs[1] + k * (cr_s - self._cs[1]))
+        return self._cs
+
+    def _hardened_uncertainty(self, nis: float, vx: float, r: float, ay_m: float, ay: float) -> None:
+        """The innovations' consistency and the linear-tire checks in the reported std; a sideslip beyond
+        ``beta_max`` held at the bound and not valid."""
+        cfg, kf = self.config, self.kf
+        self._nis.add(nis, 3)
+        self._trust.check_kinematics(self.beta, vx, r, ay_m)
+        model_std = self._trust.model_std(ay) + self._trust.kinematic_sigma
+        self.beta_std = math.hypot(kf.std(St.BETA) * self._nis.inflation(), model_std)
+        if abs(self.beta) > cfg.beta_max:          # beyond a car's sideslip: held at the bound, not valid
+            self.beta = kf.x[St.BETA] = math.copysign(cfg.beta_max, self.beta)
+            self.valid = False
+        self.valid = self.valid and self._nis.consistent

@@ -231,17 +231,7 @@ class Yoon2014DualKF(ProfiledEstimator):
         self.inclination = cfg.mag_inclination
         self.disturbed = False
         if self.hardened:
-            v = self.vehicle
-            self._roll_gain = v.m_s * v.h_s / (v.K_phi_f + v.K_phi_r - v.m_s * GRAVITY * v.h_s)   # phi per a_y
-            self._F_h = np.eye(5)
-            self._F_h[Hd.PSI, Hd.BR] = self._F_h[Hd.PHI, Hd.BP] = -ts
-            self._Q_h = np.diag([cfg.q_psi, cfg.q_phi, cfg.q_bias, cfg.q_bias, cfg.q_inclination])
-            self._psi_hist: deque = deque(maxlen=int(math.ceil(cfg.max_delay / ts)) + 2)
-            self._latency = GpsLatency(ts, cfg.gps_latency, cfg.gps_latency_std, cfg.identify_delay,
-                                       min(cfg.max_delay, 0.5))
-            self.delay = self._latency.value
-            self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
-            self._outage = 0.0
+            self._hardened_init()
 
     def _extras(self) -> tuple:
         return (wrap_angle(self.yaw), self.roll, float(self.kf.x[Sd.BX]), float(self.kf.x[Sd.BY]), self.delay,
@@ -266,51 +256,6 @@ class Yoon2014DualKF(ProfiledEstimator):
         hd.x[Hd.PSI] = math.remainder(hd.x[Hd.PSI], 2 * math.pi)
         self.yaw, self.roll = hd.x.tolist()
 
-    def _heading_hardened(self, r: float, p: float, mag: tuple, ay: float, still: bool) -> None:
-        """Hardened heading filter on ``[psi, phi, b_r, b_p, incl]``: gyros minus their offsets, zero rates
-        at a standstill, the 3-axis magnetometer with the inclination a state, the roll model."""
-        cfg, ts = self.config, self.Ts
-        norm = math.sqrt(mag[0] ** 2 + mag[1] ** 2 + mag[2] ** 2)
-        self.disturbed = abs(norm - 1.0) > cfg.mag_threshold
-        if self.heading is None:
-            if self.disturbed:                   # start from an undisturbed field only
-                return
-            field = self._field
-            psi0 = math.atan2(field[1], field[0]) - math.atan2(mag[1], mag[0])
-            self.heading = KalmanFilter([math.remainder(psi0, 2 * math.pi), 0.0, 0.0, 0.0, cfg.mag_inclination],
-                                        np.diag([0.1, 0.05, cfg.bias_std0 ** 2, cfg.bias_std0 ** 2,
-                                                 cfg.inclination_std0 ** 2]))
-        hd = self.heading
-        x = hd.x.tolist()
-        hd.predict([x[0] + ts * (r - x[2]), x[1] + ts * (p - x[3]), x[2], x[3], x[4]], self._F_h, self._Q_h)
-        if still:                                # a standstill: both rates are zero
-            hd.update_state(Hd.BR, r - hd.x[Hd.BR], 1e-6)      # a gyro sample's noise (0.06 deg/s)
-            hd.update_state(Hd.BP, p - hd.x[Hd.BP], 1e-6)
-        psi, phi, _, _, incl = hd.x.tolist()
-        field = earth_field(incl, cfg.mag_declination)
-        d_field = (-math.sin(incl) * math.sin(cfg.mag_declination), -math.sin(incl) * math.cos(cfg.mag_declination),
-                   -math.cos(incl))
-        H = np.zeros((3, 5))
-        H[:, :2] = magnetometer_H(psi, phi, field)
-        H[:, 4] = magnetometer_h(psi, phi, d_field)          # the field is linear in F: dm/dincl = M dF/dincl
-        R = self._R_mag_dist if (self.disturbed and cfg.disturbance_rejection) else self._R_mag    # eq 21
-        hd.update(np.array(mag) - magnetometer_h(psi, phi, field), H, R)                           # eq 22
-        hd.update_state(Hd.PHI, self._roll_gain * (ay - GRAVITY * math.sin(hd.x[Hd.PHI])) - hd.x[Hd.PHI],
-                        cfg.sigma_roll ** 2)
-        hd.x[Hd.PSI] = math.remainder(hd.x[Hd.PSI], 2 * math.pi)
-        self.yaw, self.roll, self.b_r, self.b_p, self.inclination = hd.x.tolist()
-
-    def _course_heading(self, ve: float, vn: float, speed: float, beta_bicycle: float) -> None:
-        """Hardened: while straight, the course (of ``delay`` ago) minus the bicycle sideslip measures the heading."""
-        cfg, hd = self.config, self.heading
-        lag = min(int(round(self.delay / self.Ts)), len(self._psi_hist) - 1)
-        shift = self._psi_hist[-1] - self._psi_hist[-1 - lag]        # heading change since the fix's time
-        z = math.atan2(vn, ve) - beta_bicycle + shift
-        r = cfg.sigma_course ** 2 + (cfg.sigma_gps / speed) ** 2
-        hd.update_state(Hd.PSI, math.remainder(z - hd.x[Hd.PSI], 2 * math.pi), r)
-        hd.x[Hd.PSI] = math.remainder(hd.x[Hd.PSI], 2 * math.pi)
-        self.yaw, self.roll, self.b_r, self.b_p, self.inclination = hd.x.tolist()
-
     # ---------------------------------------------------------------- sideslip KF (eqs 24-27)
     def _propagate(self, kf: KalmanFilter, u: tuple, pseudo) -> None:
         """One sample of the sideslip KF: prediction with ``u = (yaw rate, a_x, a_y - g sin(phi))``
@@ -327,24 +272,20 @@ class Yoon2014DualKF(ProfiledEstimator):
         c, s = math.cos(psi), math.sin(psi)
         z = np.array([c * ve + s * vn, math.cos(phi) * (-s * ve + c * vn)])      # eq 26
         R = self._R_gps
-        if self.hardened:            # what the delay's and the heading's uncertainty add (module docstring)
-            ax, ay = accel
-            sd, var_psi = self._latency.std, self.heading.P.item(Hd.PSI, Hd.PSI)
-            x = kf.x
-            R = R + np.diag([(ax * sd) ** 2 + x[Sd.V] ** 2 * var_psi, (ay * sd) ** 2 + x[Sd.U] ** 2 * var_psi])
+        if self.hardened:
+            R = R + self._hardened_gps_noise(kf, accel)
         return kf.update(z - self._H_gps.dot(kf.x), self._H_gps, R)             # eq 27
 
     def _sample(self, u):
         I, cfg, ts = self.In, self.config, self.Ts
         vw = self.speed(u)
         r_m, p_m, ax_m, ay_m = u[I.YAW_RATE_M], u[I.ROLL_RATE_M], u[I.AX_M], u[I.AY_M]
-        # gyro biases while standing still (Section III.A)
         self._still = self._still + ts if abs(vw) < cfg.standstill_speed else 0.0
         mag = (u[I.MAG_X], u[I.MAG_Y], u[I.MAG_Z])
         if self.hardened:
-            self._heading_hardened(r_m, p_m, mag, ay_m - float(self.kf.x[Sd.BY]), self._still > cfg.standstill_settle)
+            self._hardened_heading(r_m, p_m, mag, ay_m - float(self.kf.x[Sd.BY]), self._still > cfg.standstill_settle)
         else:
-            if self._still > cfg.standstill_settle:  # after the body has settled on its springs
+            if self._still > cfg.standstill_settle:  # gyro biases at a standstill, once settled (Section III.A)
                 self._gyro_sum[0] += r_m
                 self._gyro_sum[1] += p_m
                 self._gyro_n += 1
@@ -374,19 +315,16 @@ class Yoon2014DualKF(ProfiledEstimator):
                 if self.hardened:
                     self._latency.identified(d)
         if self.hardened:
-            self._psi_hist.append(self.yaw)
-            self._latency.push(r, self.beta)
-            self._outage = 0.0 if u[I.GPS_VALID] != 0.0 else self._outage + ts
-            speed = math.hypot(u[I.GPS_VE], u[I.GPS_VN])
-            if fresh and speed > cfg.course_speed:
-                self._latency.add_fix(math.atan2(u[I.GPS_VN], u[I.GPS_VE]), r)
-                self.delay = self._latency.value
-                if straight and self._bicycle.valid:
-                    self._course_heading(u[I.GPS_VE], u[I.GPS_VN], speed, self._bicycle.beta)
+            self._hardened_course(u, r, straight, fresh)
         if fresh:
             nis = self._apply_fix(u[I.GPS_VE], u[I.GPS_VN])
             if self.hardened:
                 self._gps_nis.add(nis, 2)
+        self._outputs(vw, r, straight)
+
+    def _outputs(self, vw: float, r: float, straight: bool) -> None:
+        """The estimate: the bicycle model's while straight (eq 32), else the sideslip KF's (eq 28)."""
+        cfg, kf = self.config, self.kf
         U, V = float(kf.x[Sd.U]), float(kf.x[Sd.V])
         self.vx, self.vy, self.yaw_rate = U, V, r
         if U < cfg.v_min or vw < cfg.v_min:    # standing, creeping or reversing (by the KF or the wheels)
@@ -423,3 +361,82 @@ class Yoon2014DualKF(ProfiledEstimator):
             self._propagate(kf, e[0], e[1])
             e[4], e[5] = kf.x.copy(), kf.P.copy()
         return nis
+
+    # ---------------------------------------------------------------- hardened profile (module docstring)
+    def _hardened_init(self) -> None:
+        cfg, ts, v = self.config, self.Ts, self.vehicle
+        self._roll_gain = v.m_s * v.h_s / (v.K_phi_f + v.K_phi_r - v.m_s * GRAVITY * v.h_s)   # phi per a_y
+        self._F_h = np.eye(5)
+        self._F_h[Hd.PSI, Hd.BR] = self._F_h[Hd.PHI, Hd.BP] = -ts
+        self._Q_h = np.diag([cfg.q_psi, cfg.q_phi, cfg.q_bias, cfg.q_bias, cfg.q_inclination])
+        self._psi_hist: deque = deque(maxlen=int(math.ceil(cfg.max_delay / ts)) + 2)
+        self._latency = GpsLatency(ts, cfg.gps_latency, cfg.gps_latency_std, cfg.identify_delay,
+                                   min(cfg.max_delay, 0.5))
+        self.delay = self._latency.value
+        self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
+        self._outage = 0.0
+
+    def _hardened_heading(self, r: float, p: float, mag: tuple, ay: float, still: bool) -> None:
+        """Hardened heading filter on ``[psi, phi, b_r, b_p, incl]``: gyros minus their offsets, zero rates
+        at a standstill, the 3-axis magnetometer with the inclination a state, the roll model."""
+        cfg, ts = self.config, self.Ts
+        norm = math.sqrt(mag[0] ** 2 + mag[1] ** 2 + mag[2] ** 2)
+        self.disturbed = abs(norm - 1.0) > cfg.mag_threshold
+        if self.heading is None:
+            if self.disturbed:                   # start from an undisturbed field only
+                return
+            field = self._field
+            psi0 = math.atan2(field[1], field[0]) - math.atan2(mag[1], mag[0])
+            self.heading = KalmanFilter([math.remainder(psi0, 2 * math.pi), 0.0, 0.0, 0.0, cfg.mag_inclination],
+                                        np.diag([0.1, 0.05, cfg.bias_std0 ** 2, cfg.bias_std0 ** 2,
+                                                 cfg.inclination_std0 ** 2]))
+        hd = self.heading
+        x = hd.x.tolist()
+        hd.predict([x[0] + ts * (r - x[2]), x[1] + ts * (p - x[3]), x[2], x[3], x[4]], self._F_h, self._Q_h)
+        if still:                                # a standstill: both rates are zero
+            hd.update_state(Hd.BR, r - hd.x[Hd.BR], 1e-6)      # a gyro sample's noise (0.06 deg/s)
+            hd.update_state(Hd.BP, p - hd.x[Hd.BP], 1e-6)
+        psi, phi, _, _, incl = hd.x.tolist()
+        field = earth_field(incl, cfg.mag_declination)
+        d_field = (-math.sin(incl) * math.sin(cfg.mag_declination), -math.sin(incl) * math.cos(cfg.mag_declination),
+                   -math.cos(incl))
+        H = np.zeros((3, 5))
+        H[:, :2] = magnetometer_H(psi, phi, field)
+        H[:, 4] = magnetometer_h(psi, phi, d_field)          # the field is linear in F: dm/dincl = M dF/dincl
+        R = self._R_mag_dist if (self.disturbed and cfg.disturbance_rejection) else self._R_mag    # eq 21
+        hd.update(np.array(mag) - magnetometer_h(psi, phi, field), H, R)                           # eq 22
+        hd.update_state(Hd.PHI, self._roll_gain * (ay - GRAVITY * math.sin(hd.x[Hd.PHI])) - hd.x[Hd.PHI],
+                        cfg.sigma_roll ** 2)
+        hd.x[Hd.PSI] = math.remainder(hd.x[Hd.PSI], 2 * math.pi)
+        self.yaw, self.roll, self.b_r, self.b_p, self.inclination = hd.x.tolist()
+
+    def _hardened_course(self, u, r: float, straight: bool, fresh: bool) -> None:
+        """The GPS delay identified from the course, and while straight the course as a heading measurement."""
+        I, cfg = self.In, self.config
+        self._psi_hist.append(self.yaw)
+        self._latency.push(r, self.beta)
+        self._outage = 0.0 if u[I.GPS_VALID] != 0.0 else self._outage + self.Ts
+        speed = math.hypot(u[I.GPS_VE], u[I.GPS_VN])
+        if fresh and speed > cfg.course_speed:
+            self._latency.add_fix(math.atan2(u[I.GPS_VN], u[I.GPS_VE]), r)
+            self.delay = self._latency.value
+            if straight and self._bicycle.valid:
+                self._hardened_course_heading(u[I.GPS_VE], u[I.GPS_VN], speed, self._bicycle.beta)
+
+    def _hardened_course_heading(self, ve: float, vn: float, speed: float, beta_bicycle: float) -> None:
+        """While straight, the course (of ``delay`` ago) minus the bicycle sideslip measures the heading."""
+        cfg, hd = self.config, self.heading
+        lag = min(int(round(self.delay / self.Ts)), len(self._psi_hist) - 1)
+        shift = self._psi_hist[-1] - self._psi_hist[-1 - lag]        # heading change since the fix's time
+        z = math.atan2(vn, ve) - beta_bicycle + shift
+        r = cfg.sigma_course ** 2 + (cfg.sigma_gps / speed) ** 2
+        hd.update_state(Hd.PSI, math.remainder(z - hd.x[Hd.PSI], 2 * math.pi), r)
+        hd.x[Hd.PSI] = math.remainder(hd.x[Hd.PSI], 2 * math.pi)
+        self.yaw, self.roll, self.b_r, self.b_p, self.inclination = hd.x.tolist()
+
+    def _hardened_gps_noise(self, kf: KalmanFilter, accel) -> np.ndarray:
+        """What the delay's and the heading's uncertainty add to the GPS velocity's noise (module docstring)."""
+        ax, ay = accel
+        sd, var_psi = self._latency.std, self.heading.P.item(Hd.PSI, Hd.PSI)
+        x = kf.x
+        return np.diag([(ax * sd) ** 2 + x[Sd.V] ** 2 * var_psi, (ay * sd) ** 2 + x[Sd.U] ** 2 * var_psi])
