@@ -9,7 +9,7 @@ import pytest
 from sideslip.params import ParameterError
 from sideslip.recording import Recording
 from sideslip.scenarios import BENCHMARK_DEVELOPMENT, BENCHMARK_TEST, BENCHMARK_TRAINING
-from sideslip.studies import benchmark as bm
+from sideslip.studies import accuracy as bm
 from sideslip.studies.leaderboard import summarise, write_report
 from sideslip.vehicles import load_vehicle
 

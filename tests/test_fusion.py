@@ -13,7 +13,7 @@ from sideslip.estimators.fusion import (CAPACITY_MIN, Fs, Geometry, SampleInputs
 from sideslip.estimators.yoon2014 import magnetometer_h
 from sideslip.geomagnetic import earth_field, tilt_compensated_heading
 from sideslip.recording import replay
-from sideslip.studies import benchmark as B
+from sideslip.studies import accuracy as B
 from sideslip.vehicles import load_vehicle
 
 DEG = math.pi / 180.0

@@ -14,7 +14,8 @@ from sideslip.estimators.profiles import ProfiledConfig, ProfiledEstimator
 from sideslip.params import build
 from sideslip.recording import replay
 from sideslip.scenarios import get_scenario
-from sideslip.studies import benchmark as bm
+from sideslip.studies import accuracy as bm
+from sideslip.studies.metrics import MOVING_SPEED
 from sideslip.vehicles import load_vehicle
 
 DEG = math.pi / 180.0
@@ -22,7 +23,7 @@ CIRCLE = "bench_train_circle_suv_r40"        # 40 m circle at 12 m/s for 70 s, S
 
 
 def _rms_deg(rec, res) -> float:
-    moving = np.hypot(rec.reference["vx"], rec.reference["vy"]) > bm.EVAL_SPEED
+    moving = np.hypot(rec.reference["vx"], rec.reference["vy"]) > MOVING_SPEED
     err = (res["beta_hat"] - rec.reference["beta"])[moving]
     return math.degrees(math.sqrt(np.mean(err ** 2)))
 

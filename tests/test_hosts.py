@@ -28,7 +28,7 @@ from sideslip.cosim.replay import replay_fmus
 from sideslip.cosim.ssp import export_ssp
 from sideslip.fmi.catalogue import fmu_names, fmu_spec
 from sideslip.scenarios import get_scenario, scenario_params
-from sideslip.studies.benchmark import record
+from sideslip.studies.accuracy import record
 from sideslip.studies.metrics import trajectory_difference
 
 SHARED_HOSTS = Path(__file__).resolve().parents[2] / "shared" / "hosts"

@@ -9,7 +9,8 @@ import pytest
 
 from sideslip.cosim.assembly import Component, MasterError
 from sideslip.cosim.master import CoSimulation
-from sideslip.studies.metrics import estimate_metrics, format_table, scenario_summary, wrap
+from sideslip.studies.metrics import estimate_metrics, format_table, scenario_summary
+from sideslip.units import wrap_angle
 from sideslip.cosim.assembly import scenario_components
 from sideslip.studies.runs import run_scenario
 from sideslip.scenarios import get_scenario
@@ -101,7 +102,7 @@ def test_estimate_metrics_on_known_errors():
 
 
 def test_angle_errors_wrap():
-    assert wrap(np.array([3 * math.pi / 2, -3 * math.pi / 2, math.pi]))== pytest.approx([-math.pi / 2, math.pi / 2, math.pi])
+    assert wrap_angle(np.array([3 * math.pi / 2, -3 * math.pi / 2, math.pi]))== pytest.approx([-math.pi / 2, math.pi / 2, math.pi])
     data = _synthetic(0.0)
     data["est.beta_hat"] = data["plant.beta"] + 2 * math.pi
     assert estimate_metrics(data, "est")["beta_hat"]["max"] == pytest.approx(0.0, abs=1e-9)

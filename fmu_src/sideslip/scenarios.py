@@ -22,7 +22,6 @@ __all__ = ["FMVSS_FACTORS", "Scenario", "SCENARIOS", "get_scenario", "scenario_n
            "scenario_params", "BENCHMARK_TRAINING", "BENCHMARK_TEST",
            "BENCHMARK_DEVELOPMENT"]
 
-_DEG = math.pi / 180.0
 _KMH = 1.0 / 3.6
 
 
@@ -134,7 +133,7 @@ def _add(sc: Scenario) -> None:
 _PARK_SENSORS = dict(
     seed=2018, imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0,        # in-vehicle sensors every 10 ms
     ax_sigma=0.08, ay_sigma=0.08, yaw_rate_sigma=0.0024, roll_rate_sigma=0.0024,
-    ax_bias=0.10, ay_bias=0.15, yaw_rate_bias=0.5 * _DEG,               # sensor offsets (Section 2.2)
+    ax_bias=0.10, ay_bias=0.15, yaw_rate_bias=math.radians(0.5),               # sensor offsets (Section 2.2)
     wheel_sigma=0.1, wheel_radius_error=0.015, steer_sigma=0.0006,
     gps_rate=20.0, gps_vel_sigma=0.05, gps_delay=0.0,                    # standalone GPS every 50 ms
 )
@@ -148,7 +147,7 @@ _PARK_NOTES = (
 _add(Scenario(
     "park2018_case1", "Sine steer, 70 km/h, dry asphalt", "Park 2018 Table 2 case 1, Section 6.2.1",
     "park2018_sonata",
-    _spec("sine_steer", v0=70 * _KMH, v=70 * _KMH, amplitude=50 * _DEG, frequency=3.0, cycles=30.0, t_start=4.0,
+    _spec("sine_steer", v0=70 * _KMH, v=70 * _KMH, amplitude=math.radians(50), frequency=3.0, cycles=30.0, t_start=4.0,
           duration=17.0),
     17.0, road_mu="1.0", sensors=_PARK_SENSORS,
     notes=_PARK_NOTES + ("3 Hz, 50 deg handwheel from 4 s for 10 s as in the text (a steering robot's input): at "
@@ -181,8 +180,8 @@ _add(Scenario(
 _add(Scenario(
     "park2018_case5", "Brake in a turn on packed snow (mu 0.3), 50 km/h, spin-out",
     "Park 2018 Table 2 case 5, Section 6.2.5", "park2018_sonata",
-    _spec("brake_in_turn", v0=30 * _KMH, v=50 * _KMH, t_go=0.0, accel=1.39, amplitude=200 * _DEG,
-          rate=300 * _DEG, t_start=5.0, t_release=7.5, decel=0.2 * GRAVITY, v_end=0.0, duration=11.0),
+    _spec("brake_in_turn", v0=30 * _KMH, v=50 * _KMH, t_go=0.0, accel=1.39, amplitude=math.radians(200),
+          rate=math.radians(300), t_start=5.0, t_release=7.5, decel=0.2 * GRAVITY, v_end=0.0, duration=11.0),
     11.0, road_mu="0.3", sensors=_PARK_SENSORS, vehicle_overrides="brake_split_front=0.5",
     notes=_PARK_NOTES + ("30 -> 50 km/h in the first 4 s, braking (0.2 g target) and 200 deg handwheel from "
                          "5 s, handwheel back to zero at 7.5 s (Section 6.2.5).",
@@ -197,10 +196,10 @@ _add(Scenario(
 # ------------------------------------------------------------------------------------------------
 _YOON_SENSORS = dict(
     seed=2014, imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0, mag_rate=100.0,
-    ax_sigma=0.01, ay_sigma=0.01, yaw_rate_sigma=0.1 * _DEG, roll_rate_sigma=0.1 * _DEG,
-    ax_bias=0.5, ay_bias=0.5, yaw_rate_bias=2.0 * _DEG, roll_rate_bias=2.0 * _DEG,
+    ax_sigma=0.01, ay_sigma=0.01, yaw_rate_sigma=math.radians(0.1), roll_rate_sigma=math.radians(0.1),
+    ax_bias=0.5, ay_bias=0.5, yaw_rate_bias=math.radians(2.0), roll_rate_bias=math.radians(2.0),
     gps_rate=5.0, gps_vel_sigma=0.01, gps_delay=0.4,
-    mag_sigma=0.02, mag_inclination=68.0 * _DEG, mag_declination=0.0,
+    mag_sigma=0.02, mag_inclination=math.radians(68.0), mag_declination=0.0,
     mag_dist_count=3, mag_dist_share=0.08, mag_dist_min=0.5, mag_dist_max=2.0,
 )
 _YOON_NOTES = (
@@ -215,7 +214,7 @@ _YOON_NOTES = (
 
 def _yoon(man: str, road: str, banked: bool) -> Scenario:
     mu = 0.8 if road == "asphalt" else 0.3
-    bank = (8.53 if road == "asphalt" else 5.71) * _DEG if banked else 0.0
+    bank = math.radians(8.53 if road == "asphalt" else 5.71) if banked else 0.0
     v = 20.0 if road == "asphalt" else 40 * _KMH
     accel = 2.0 if road == "asphalt" else 1.0
     t_man = 5.0 + v / accel + 10.0
@@ -229,8 +228,8 @@ def _yoon(man: str, road: str, banked: bool) -> Scenario:
         spec = _spec("slalom", **base, lead_in=lead, spacing=v * 1.5, amplitude=1.0 if road == "asphalt" else 0.6,
                      cones=6, duration=t_man + 16)
     else:   # J-turn: step steer with the throttle released
-        amp = (120 if road == "asphalt" else 90) * _DEG
-        spec = _spec("j_turn", **base, amplitude=amp, rate=400 * _DEG, t_start=t_man, duration=t_man + 10)
+        amp = math.radians(120 if road == "asphalt" else 90)
+        spec = _spec("j_turn", **base, amplitude=amp, rate=math.radians(400), t_start=t_man, duration=t_man + 10)
     dur = parse_maneuver(spec).duration
     name = f"yoon2014_{man}_{road}" + ("_banked" if banked else "")
     sensors = dict(_YOON_SENSORS, mag_dist_horizon=dur)
@@ -257,7 +256,7 @@ for _nm, _mu, _v in (("high", 0.8, 22.22), ("medium", 0.5, 16.67), ("low", 0.2, 
     _add(Scenario(
         f"pi2011_{_nm}", f"Sine steer on {_nm} friction (mu {_mu}) at {_v * 3.6:.0f} km/h",
         "Pi 2011 Section 5, Figs. 7-13, Table 4", "pi2011_suv",
-        _spec("sine_steer", v0=_v, v=_v, amplitude=4 * 17 * _DEG, frequency=0.5, cycles=2.0, t_start=1.0,
+        _spec("sine_steer", v0=_v, v=_v, amplitude=math.radians(4 * 17), frequency=0.5, cycles=2.0, t_start=1.0,
               duration=8.0),
         8.0, road_mu=f"{_mu}", sensors=_PI_SENSORS, notes=_PI_NOTES, hints={"mu": _mu}))
 
@@ -355,12 +354,12 @@ def _fmvss(surface: str, factor: float | None, direction: float) -> Scenario:
 
 
 # ------------------------------------------------------------------------------------------------
-# The estimator benchmark (sideslip.studies.benchmark): a training set to tune on and a disjoint
+# The estimator benchmark (sideslip.studies.accuracy): a training set to tune on and a disjoint
 # test set to report on (other maneuvers, speeds, vehicles and friction), clean sensors; the
 # benchmark's conditions add sensor errors and model mismatch on top.
 # ------------------------------------------------------------------------------------------------
 _BENCH_SENSORS = dict(imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0, mag_rate=50.0, gps_rate=10.0,
-                      ax_sigma=0.05, ay_sigma=0.05, yaw_rate_sigma=0.1 * _DEG, roll_rate_sigma=0.1 * _DEG,
+                      ax_sigma=0.05, ay_sigma=0.05, yaw_rate_sigma=math.radians(0.1), roll_rate_sigma=math.radians(0.1),
                       wheel_sigma=0.05, steer_sigma=0.0005, gps_vel_sigma=0.05, mag_sigma=0.01)
 _BENCH_NOTES = ("Clean sensors (noise only): the benchmark's 'sensors' condition adds offsets, drift and GPS "
                 "delay; its 'mismatch' condition puts the plant on Magic Formula tires and perturbs the "
@@ -400,7 +399,7 @@ BENCHMARK_TRAINING = (
            _spec("circle", v0=4.5, v=4.5, radius=-15.0, lead_in=10.0, duration=70.0), road_mu="0.4"),
     _bench("bench_train_banked_circle_suv", "Training: 60 m circle to the left at 14 m/s on a 5 deg banked road, "
            "SUV, mu 1.0", "pi2011_suv", _spec("circle", v0=14.0, v=14.0, radius=60.0, lead_in=40.0, duration=60.0),
-           road_bank=f"{5 * _DEG:.10g}"),
+           road_bank=f"{math.radians(5):.10g}"),
     _bench("bench_train_changing_mu_suv", "Training: 0.25 Hz sine steer at 16 m/s while the friction drops from "
            "1.0 to 0.35 and returns, SUV", "pi2011_suv",
            _spec("sine_steer", v0=16.0, v=16.0, amplitude=1.2, frequency=0.25, cycles=6.0, t_start=3.0,
@@ -436,7 +435,7 @@ BENCHMARK_TEST = (
                  duration=30.0), road_mu="0:0.9, 10:0.9, 10.5:0.4, 20:0.4, 20.5:0.9"),
     _bench("bench_banked_lc_asm", "Lane changes at 20 m/s on a 6 deg banked road, small car, mu 1.0",
            "kim2016_asm", _spec("lane_change", v0=20.0, v=20.0, lead_in=100.0, offset=3.5, length=40.0,
-                                duration=24.0), road_bank=f"{6 * _DEG:.10g}"),
+                                duration=24.0), road_bank=f"{math.radians(6):.10g}"),
     _bench("bench_jturn_coms_ice", "J-turn at 8 m/s on ice, micro EV, mu 0.3",
            "nguyen2012_coms", _spec("j_turn", v0=8.0, v=8.0, amplitude=4.0, rate=8.0, t_start=4.0, duration=14.0),
            road_mu="0.3"),

@@ -12,14 +12,23 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from .constants import STANDARD_GRAVITY
 
-__all__ = ["Unit", "UNITS", "QUANTITIES", "LOG_UNITS", "unit_of_quantity", "si_factor", "wrap_angle"]
+__all__ = ["Unit", "UNITS", "QUANTITIES", "LOG_UNITS", "DEG", "unit_of_quantity", "si_factor", "wrap_angle"]
 
 
-def wrap_angle(angle: float) -> float:
-    """An angle wrapped to (-pi, pi] [rad]: headings on ports are reported so."""
-    return math.pi - (math.pi - angle) % (2.0 * math.pi)
+DEG = 180.0 / math.pi
+"""Degrees per radian: ``angle * DEG`` is in degrees (a display unit only; ``math.radians`` converts back)."""
+
+
+def wrap_angle(angle):
+    """An angle, or an array of angles, wrapped to (-pi, pi] [rad]: headings on ports are reported so, and angle
+    errors are scored so."""
+    if isinstance(angle, (float, int)):
+        return math.pi - (math.pi - angle) % (2.0 * math.pi)
+    return np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2.0 * np.pi)
 
 
 @dataclass(frozen=True)
@@ -41,8 +50,6 @@ class Unit:
     display: tuple = ()
 
 
-_DEG = 180.0 / math.pi
-
 UNITS: dict[str, Unit] = {u.name: u for u in (
     Unit("1"),
     Unit("s", {"s": 1}),
@@ -50,9 +57,9 @@ UNITS: dict[str, Unit] = {u.name: u for u in (
     Unit("m", {"m": 1}),
     Unit("m/s", {"m": 1, "s": -1}, (("km/h", 3.6),)),
     Unit("m/s2", {"m": 1, "s": -2}, (("g", 1.0 / STANDARD_GRAVITY),)),
-    Unit("rad", {"rad": 1}, (("deg", _DEG),)),
-    Unit("rad/s", {"rad": 1, "s": -1}, (("deg/s", _DEG),)),
-    Unit("rad/s2", {"rad": 1, "s": -2}, (("deg/s2", _DEG),)),
+    Unit("rad", {"rad": 1}, (("deg", DEG),)),
+    Unit("rad/s", {"rad": 1, "s": -1}, (("deg/s", DEG),)),
+    Unit("rad/s2", {"rad": 1, "s": -2}, (("deg/s2", DEG),)),
     Unit("kg", {"kg": 1}),
     Unit("kg.m2", {"kg": 1, "m": 2}),
     Unit("N", {"kg": 1, "m": 1, "s": -2}),

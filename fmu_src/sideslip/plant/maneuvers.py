@@ -23,7 +23,6 @@ from . import paths as P
 
 __all__ = ["Plan", "TimeTable", "MANEUVERS", "parse_maneuver", "maneuver_names"]
 
-_DEG = math.pi / 180.0
 
 
 class TimeTable:
@@ -162,7 +161,7 @@ class StraightLine(_Base):
 class SineSteer(_Base):
     """Sinusoidal handwheel input of ``cycles`` periods from ``t_start``."""
 
-    amplitude: float = param(50 * _DEG, "Angle", "Handwheel amplitude", ge=0, le=15)
+    amplitude: float = param(math.radians(50), "Angle", "Handwheel amplitude", ge=0, le=15)
     frequency: float = param(0.5, "Frequency", "Steering frequency", gt=0, le=10)
     cycles: float = param(3.0, "Dimensionless", "Number of periods", gt=0, le=1000)
     t_start: float = param(3.0, "Time", "Start of steering", ge=0, le=3600)
@@ -179,9 +178,9 @@ class SineSteer(_Base):
 class StepSteer(_Base):
     """Handwheel ramp to ``amplitude`` at ``rate`` from ``t_start``, then held (step steer)."""
 
-    amplitude: float = param(90 * _DEG, "Angle", "Handwheel angle held after the ramp (sign = direction)",
+    amplitude: float = param(math.radians(90), "Angle", "Handwheel angle held after the ramp (sign = direction)",
                              ge=-15, le=15)
-    rate: float = param(500 * _DEG, "AngularVelocity", "Handwheel rate of the ramp", gt=0, le=50)
+    rate: float = param(math.radians(500), "AngularVelocity", "Handwheel rate of the ramp", gt=0, le=50)
     t_start: float = param(3.0, "Time", "Start of steering", ge=0, le=3600)
     coast: bool = param(False, "Dimensionless", "Release the throttle at t_start (J-turn)")
 
@@ -210,10 +209,10 @@ class SlowlyIncreasingSteer(_Base):
 
     v0: float = param(80 / 3.6, "Velocity", "Initial speed", ge=0, le=70)
     v: float = param(80 / 3.6, "Velocity", "Speed held", ge=0, le=70)
-    rate: float = param(13.5 * _DEG, "AngularVelocity", "Handwheel rate", gt=0, le=10)
+    rate: float = param(math.radians(13.5), "AngularVelocity", "Handwheel rate", gt=0, le=10)
     direction: float = param(1.0, "Dimensionless", "+1 steer left, -1 steer right", choices=(1.0, -1.0))
     t_start: float = param(2.0, "Time", "Start of the ramp", ge=0, le=3600)
-    max_angle: float = param(270 * _DEG, "Angle", "Handwheel angle where the ramp stops", gt=0, le=15)
+    max_angle: float = param(math.radians(270), "Angle", "Handwheel angle where the ramp stops", gt=0, le=15)
 
     def plan(self, vehicle) -> Plan:
         r, t0, lim, d = self.rate, self.t_start, self.max_angle, self.direction
@@ -234,13 +233,13 @@ class SineWithDwell(_Base):
 
     v0: float = param(80 / 3.6, "Velocity", "Entry speed (80 km/h)", ge=0, le=70)
     v: float = param(80 / 3.6, "Velocity", "Speed held before the maneuver", ge=0, le=70)
-    A: float = param(20 * _DEG, "Angle", "Handwheel angle for 0.3 g in the SIS test", gt=0, le=10)
+    A: float = param(math.radians(20), "Angle", "Handwheel angle for 0.3 g in the SIS test", gt=0, le=10)
     factor: float = param(1.5, "Dimensionless", "Amplitude as a multiple of A", gt=0, le=20)
     frequency: float = param(0.7, "Frequency", "Sine frequency", gt=0, le=5)
     dwell: float = param(0.5, "Time", "Dwell at the second peak", ge=0, le=5)
     direction: float = param(1.0, "Dimensionless", "+1 steer left first, -1 right first", choices=(1.0, -1.0))
     t_start: float = param(3.0, "Time", "Beginning of steer", ge=0, le=3600)
-    max_amplitude: float = param(270 * _DEG, "Angle", "Cap of the amplitude (FMVSS 126: 270 deg)", gt=0, le=15)
+    max_amplitude: float = param(math.radians(270), "Angle", "Cap of the amplitude (FMVSS 126: 270 deg)", gt=0, le=15)
 
     @property
     def amplitude(self) -> float:
@@ -277,8 +276,8 @@ class BrakeInTurn(_Base):
     The steering returns to zero at ``t_release``; braking continues until ``v_end``.
     """
 
-    amplitude: float = param(200 * _DEG, "Angle", "Handwheel angle of the turn", ge=-15, le=15)
-    rate: float = param(200 * _DEG, "AngularVelocity", "Handwheel rate of the ramps", gt=0, le=50)
+    amplitude: float = param(math.radians(200), "Angle", "Handwheel angle of the turn", ge=-15, le=15)
+    rate: float = param(math.radians(200), "AngularVelocity", "Handwheel rate of the ramps", gt=0, le=50)
     t_start: float = param(5.0, "Time", "Start of braking and steering", ge=0, le=3600)
     t_release: float = param(7.5, "Time", "Time the handwheel is back to zero", ge=0, le=3600)
     decel: float = param(0.2 * GRAVITY, "Acceleration", "Target deceleration", gt=0, le=10)

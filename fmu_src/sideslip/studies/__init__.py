@@ -4,8 +4,8 @@
 * :mod:`~sideslip.studies.runs` - one scenario run, many runs, the library loop without FMI;
 * :mod:`~sideslip.studies.papers` - the papers' result tables, one module per paper;
 * :mod:`~sideslip.studies.control_eval` - the closed-loop evaluation of the controller, tuning;
-* :mod:`~sideslip.studies.bench` - microseconds per FMU step and real-time factor;
-* :mod:`~sideslip.studies.benchmark`, :mod:`~sideslip.studies.leaderboard` - the estimator benchmark
+* :mod:`~sideslip.studies.speed` - microseconds per FMU step and real-time factor;
+* :mod:`~sideslip.studies.accuracy`, :mod:`~sideslip.studies.leaderboard` - the estimator benchmark
   (scenarios under sensor errors and model mismatch, training and test sets) and its leaderboard;
 * :mod:`~sideslip.studies.logs` - estimator FMUs on a recorded drive, with metrics and a plot;
 * :mod:`~sideslip.studies.metrics`, :mod:`~sideslip.studies.plots` - errors against truth, figures.

@@ -4,7 +4,7 @@
 TOML map with units, scale and offset), runs the estimator FMUs on it
 (:func:`sideslip.cosim.replay.replay_fmus`) and writes ``estimates.csv``; when the log has a
 reference sideslip (an optical or INS sensor, or a simulation's truth) it also scores every
-estimator as the benchmark does (:func:`sideslip.studies.benchmark.row_metrics`) and writes
+estimator as the benchmark does (:func:`sideslip.studies.accuracy.row_metrics`) and writes
 ``metrics.json`` and ``sideslip.png``.
 """
 from __future__ import annotations
@@ -19,7 +19,7 @@ from ..cosim.assembly import Component, estimator_instances
 from ..cosim.replay import replay_fmus
 from ..fmi.build import DEFAULT_OUT
 from ..recording import Recording, read_log
-from .benchmark import recorded_speed, row_metrics
+from .accuracy import recorded_speed, row_metrics
 from .plots import plot_sideslip
 
 __all__ = ["replay_log", "format_replay"]

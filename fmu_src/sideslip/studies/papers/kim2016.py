@@ -7,14 +7,13 @@ and steering-sensor fault detection, with the FMUs in closed loop.
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from ...fmi.build import DEFAULT_OUT
+from ...units import DEG
 from ..runs import run_jobs
 
-_DEG = 180.0 / math.pi
 
 KIM2016_TABLE3 = {40: {"beta": 0.054, "yaw_rate": 0.046, "delta": 0.017},
                   80: {"beta": 0.063, "yaw_rate": 0.046, "delta": 0.016}}
@@ -26,8 +25,8 @@ _KIM_FIELDS = ("Kim2016SteeringEKF.delta_residual", "Kim2016SteeringEKF.delta_fa
 
 def _kim_row(metrics: dict, arrays: dict) -> dict:
     m = metrics["estimators"]["Kim2016SteeringEKF"]
-    return {"beta": m["beta_hat"]["rms"] / _DEG, "yaw_rate": m["yaw_rate_hat"]["rms"] / _DEG,
-            "delta": m["delta_hat"]["rms"] / _DEG,
+    return {"beta": m["beta_hat"]["rms"] / DEG, "yaw_rate": m["yaw_rate_hat"]["rms"] / DEG,
+            "delta": m["delta_hat"]["rms"] / DEG,
             "max_abs_residual": float(np.max(np.abs(arrays["Kim2016SteeringEKF.delta_residual"]))),
             "false_alarm": bool(np.any(arrays["Kim2016SteeringEKF.delta_fault"] > 0.5))}
 

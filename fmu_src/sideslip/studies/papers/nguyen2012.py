@@ -7,14 +7,13 @@ the FMUs in closed loop.
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from ...fmi.build import DEFAULT_OUT
+from ...units import DEG
 from ..runs import run_jobs
 
-_DEG = 180.0 / math.pi
 
 
 NGUYEN2012_TABLE3 = {"nguyen2012_lanechange": {"srkf": 1.02e-2, "mrkf": 0.86e-2, "dacmrkf": 0.38e-2},
@@ -57,7 +56,7 @@ def nguyen2012_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, params=None, bin_
         n_bins = int(round(0.2 / bin_s))
         row = {"rmsd": {}, "paper": NGUYEN2012_TABLE3[name], "inter_sample": {}, "bin_s": bin_s}
         for m in NGUYEN_MODES:
-            row["rmsd"][m] = metrics["estimators"][m]["beta_hat"]["rms"] / _DEG
+            row["rmsd"][m] = metrics["estimators"][m]["beta_hat"]["rms"] / DEG
             err = arr[f"{m}.beta_hat"] - arr["plant.beta"]
             ok = (arr[f"{m}.valid"] > 0.5) & (last >= 0)
             row["inter_sample"][m] = [float(np.sqrt(np.mean(err[ok & (bins == b)] ** 2))) for b in range(n_bins)]

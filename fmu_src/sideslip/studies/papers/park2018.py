@@ -9,15 +9,13 @@ vehicle state estimation": Table 3 and a GPS outage, with the FMUs in closed loo
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from ...fmi.build import DEFAULT_OUT
-from ..metrics import wrap
+from ...units import DEG, wrap_angle
 from ..runs import run_jobs
 
-_DEG = 180.0 / math.pi
 
 PARK2018_TABLE3 = {1: (0.218, 0.063), 2: (0.623, 0.177), 3: (0.386, 0.144), 4: (0.834, 0.340), 5: (6.714, 2.455)}
 """Park 2018 Table 3: case -> (maximum, RMS) sideslip error of the integrated observer [deg]."""
@@ -103,9 +101,9 @@ def park2018_gps_outage(fmu_dir=DEFAULT_OUT, scenario: str = "park2018_case3", w
            "gps_valid_during": float(outage["sensors.gps_valid"][during].mean())}
     for f in fields[:3]:
         name = f.split(".", 1)[1]
-        e_out = wrap(outage[f] - outage["plant.beta"]) * _DEG
-        e_nom = wrap(nominal[f] - nominal["plant.beta"]) * _DEG
-        diff = np.abs(wrap(outage[f] - nominal[f])) * _DEG
+        e_out = wrap_angle(outage[f] - outage["plant.beta"]) * DEG
+        e_nom = wrap_angle(nominal[f] - nominal["plant.beta"]) * DEG
+        diff = np.abs(wrap_angle(outage[f] - nominal[f])) * DEG
         out[name] = {"rms_outage": float(np.sqrt(np.mean(e_out[during] ** 2))),
                      "max_outage": float(np.max(np.abs(e_out[during]))),
                      "rms_nominal": float(np.sqrt(np.mean(e_nom[during] ** 2))),

@@ -6,13 +6,11 @@ stability control": Table 4, with the FMUs in closed loop.
 """
 from __future__ import annotations
 
-import math
 
 
 from ...fmi.build import DEFAULT_OUT
 from ..runs import run_jobs
 
-_DEG = 180.0 / math.pi
 
 
 PI2011_TABLE4 = {"pi2011_high": {"method": (5.1, 0.388), "model": (35.5, 6.4), "kinematic": (16.3, 7.0)},

@@ -6,15 +6,14 @@ that integrates a magnetometer with GPS": Section V, with the FMUs in closed loo
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
 from ...fmi.build import DEFAULT_OUT
-from ..metrics import wrap
+from ...units import DEG, wrap_angle
 from ..runs import run_jobs
+from ..metrics import scored_samples
 
-_DEG = 180.0 / math.pi
 
 
 YOON_SCENARIOS = tuple(f"yoon2014_{m}_{r}{b}" for m in ("slc", "dlc", "slalom", "jturn") for r in ("asphalt", "ice")
@@ -50,10 +49,10 @@ def yoon2014_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, scenarios=YOON_SCEN
         for sc in scenarios:
             metrics, arr = next(results)
             runs[sc] = {v: metrics["estimators"][v]["beta_hat"]["rms"] for v in YOON_VARIANTS}
-            moving = np.hypot(arr["plant.vx"], arr["plant.vy"]) > 2.0
+            moving = scored_samples(np.hypot(arr["plant.vx"], arr["plant.vy"]))
             for v in YOON_VARIANTS:
                 ok = moving & (arr[f"{v}.valid"] > 0.5)
-                pooled[v].append(wrap(arr[f"{v}.beta_hat"][ok] - arr["plant.beta"][ok]) * _DEG)
+                pooled[v].append(wrap_angle(arr[f"{v}.beta_hat"][ok] - arr["plant.beta"][ok]) * DEG)
         out[level] = {"runs": runs, "overall": {v: float(np.sqrt(np.mean(np.concatenate(e) ** 2)))
                                                 for v, e in pooled.items()}}
     return out

@@ -28,7 +28,8 @@ the (perturbed) vehicle, their own default sample period and settings, no fricti
 parameter (Park 2018's friction *input* carries the road's, as from an upstream friction
 estimator), and the magnetometer calibration of their defaults in the ``sensors`` conditions.
 
-Metrics per row and case, over the samples where the car moves faster than 2 m/s, whether the
+Metrics per row and case (:mod:`sideslip.studies.metrics`), over the samples where the car moves faster than
+:data:`~sideslip.studies.metrics.MOVING_SPEED`, whether the
 estimator says ``valid`` or not (so that it cannot improve its score by declaring the hard parts,
 or a long start-up, not valid; an estimator that is not yet sure should output its prior, zero): RMS and maximum sideslip error and predict-zero's RMS on the same samples; the RMS
 while ``valid`` (and predict-zero's on those samples); the share of moving samples it is valid
@@ -55,21 +56,20 @@ from ..plant.vehicle import PlantConfig, VehiclePlant
 from ..recording import LogError, Recording, read_log, replay
 from ..scenarios import BENCHMARK_DEVELOPMENT, BENCHMARK_TEST, BENCHMARK_TRAINING, Scenario, get_scenario
 from ..signals import SENSOR_INPUTS, SENSOR_OUTPUTS
+from ..units import DEG, wrap_angle
 from ..vehicles import VehicleParams, load_vehicle
 from .jobs import map_ordered
+from .metrics import score, scored_samples, valid_share
 
-__all__ = ["CONDITIONS", "RECORDED", "EVAL_SPEED", "OFF_DEG", "Row", "ROWS", "PAPER_METHODS", "Case", "cases", "log_case",
+__all__ = ["CONDITIONS", "RECORDED", "OFF_DEG", "Row", "ROWS", "PAPER_METHODS", "Case", "cases", "log_case",
            "sensor_errors", "vehicle_mismatch", "setup", "record", "simulate", "make_estimator", "recorded_speed",
            "row_metrics", "run_case", "select_rows", "with_params", "sensor_overrides", "run_benchmark"]
 
 CONDITIONS = ("nominal", "sensors", "mismatch", "sensors+mismatch")
 RECORDED = "recorded"
 """The condition of a case that is a recorded drive (:func:`log_case`)."""
-EVAL_SPEED = 2.0
-"""[m/s] below which sideslip is not evaluated (undefined at standstill)."""
 OFF_DEG = 3.0
 """[deg] an error beyond which the estimator should not say ``valid`` for long."""
-_DEG = 180.0 / math.pi
 
 
 @dataclass(frozen=True)
@@ -152,15 +152,14 @@ def _rng(case: Case, what: str) -> np.random.Generator:
 def sensor_errors(case: Case) -> dict:
     """Automotive-grade sensor errors of a case (SensorConfig values), drawn from its seed."""
     r = _rng(case, "sensors")
-    deg = math.pi / 180.0
     return dict(
-        yaw_rate_bias=r.uniform(-0.6, 0.6) * deg, yaw_rate_bias_drift=0.1 * deg,
-        roll_rate_bias=r.uniform(-0.6, 0.6) * deg,
+        yaw_rate_bias=math.radians(r.uniform(-0.6, 0.6)), yaw_rate_bias_drift=math.radians(0.1),
+        roll_rate_bias=math.radians(r.uniform(-0.6, 0.6)),
         ax_bias=r.uniform(-0.25, 0.25), ay_bias=r.uniform(-0.25, 0.25),
-        ax_sigma=0.05, ay_sigma=0.05, yaw_rate_sigma=0.1 * deg, roll_rate_sigma=0.1 * deg,
+        ax_sigma=0.05, ay_sigma=0.05, yaw_rate_sigma=math.radians(0.1), roll_rate_sigma=math.radians(0.1),
         gps_rate=10.0, gps_delay=0.1, gps_vel_sigma=r.uniform(0.05, 0.1),
         steer_bias=r.uniform(-0.003, 0.003), wheel_radius_error=r.uniform(-0.01, 0.01),
-        mag_inclination=r.uniform(55.0, 72.0) * deg, mag_sigma=0.01,
+        mag_inclination=math.radians(r.uniform(55.0, 72.0)), mag_sigma=0.01,
     )
 
 
@@ -278,31 +277,30 @@ def recorded_speed(rec: Recording) -> np.ndarray:
 
 
 def row_metrics(rec: Recording, beta_hat, std, valid) -> dict:
-    """Metrics of one row on one recorded case (module docstring)."""
+    """Metrics of one row on one recorded case (module docstring): every moving sample scored, the valid ones
+    beside (:func:`~sideslip.studies.metrics.score`)."""
     t = rec.time
     dt = float(t[1] - t[0])
-    moving = recorded_speed(rec) > EVAL_SPEED
-    valid = np.asarray(valid) > 0.5
-    ok = moving & valid
+    speed = recorded_speed(rec)
+    moving = scored_samples(speed)
+    ok = scored_samples(speed, valid, valid_only=True)
     beta = rec.reference["beta"]
-    err = (np.pi - np.mod(np.pi - (np.asarray(beta_hat) - beta), 2.0 * np.pi)) * _DEG
-    std = np.asarray(std) * _DEG
-    out = {"valid": float(ok.sum() / max(moving.sum(), 1)),
+    err = wrap_angle(np.asarray(beta_hat) - beta) * DEG
+    std = np.asarray(std) * DEG
+    out = {"valid": valid_share(valid, moving),
            "time_to_valid": float(t[np.argmax(ok)] - t[np.argmax(moving)]) if ok.any() else float("nan"),
-           "max_abs_beta": float(np.abs(beta[moving]).max() * _DEG) if moving.any() else 0.0}
+           "max_abs_beta": float(np.abs(beta[moving]).max() * DEG) if moving.any() else 0.0}
     nan = float("nan")
     if not moving.any():
         return {**out, **dict.fromkeys(("rms", "max", "zero_rms", "rms_valid", "zero_rms_valid", "std_ratio", "nees",
                                         "coverage95"), nan), "off_while_valid": 0.0}
-    scored = moving                                   # every moving sample, valid or not
-    rms = lambda e: float(np.sqrt(np.mean(e ** 2))) if e.size else nan   # noqa: E731
-    e = err[scored]
-    out.update(rms=rms(e), max=float(np.abs(e).max()), zero_rms=rms(beta[scored] * _DEG),
-               rms_valid=rms(err[ok]), zero_rms_valid=rms(beta[ok] * _DEG),
-               off_while_valid=_longest(ok & (np.abs(err) > OFF_DEG), dt))
+    beta_deg = beta * DEG
+    every, on_valid = score(err, beta_deg, moving), score(err, beta_deg, ok)
+    out.update(rms=every["rms"], max=every["max"], zero_rms=every["zero_rms"], rms_valid=on_valid["rms"],
+               zero_rms_valid=on_valid["zero_rms"], off_while_valid=_longest(ok & (np.abs(err) > OFF_DEG), dt))
     if np.isfinite(std).all():                   # predict-zero reports no uncertainty
-        s = np.maximum(std[scored], 1e-9)
-        out.update(std_ratio=rms(e) / rms(s), nees=float(np.mean((e / s) ** 2)),
+        e, s = err[moving], np.maximum(std[moving], 1e-9)
+        out.update(std_ratio=every["rms"] / float(np.sqrt(np.mean(s ** 2))), nees=float(np.mean((e / s) ** 2)),
                    coverage95=float(np.mean(np.abs(e) <= 1.96 * s)))
     else:
         out.update(std_ratio=nan, nees=nan, coverage95=nan)
@@ -329,7 +327,7 @@ def run_case(case: Case, rows=ROWS, traces: bool = False) -> dict:
     out = {"case": case.name, "scenario": case.scenario, "condition": case.condition, "seed": case.seed,
            "mu_min": float(np.min(mu)) if mu is not None else float("nan"), "rows": {}}
     if traces:
-        out["traces"] = {"time": rec.time[::20].tolist(), "beta": (rec.reference["beta"][::20] * _DEG).tolist()}
+        out["traces"] = {"time": rec.time[::20].tolist(), "beta": (rec.reference["beta"][::20] * DEG).tolist()}
     grids = {}
     for row in rows:
         if row.estimator is None:
@@ -348,7 +346,7 @@ def run_case(case: Case, rows=ROWS, traces: bool = False) -> dict:
             every = max(1, int(round(0.02 / float(at.time[1] - at.time[0]))))
             out["traces"][row.label] = {"time": at.time[::every].tolist(),
                                         "beta_hat": np.where(np.asarray(valid)[::every] > 0.5,
-                                                             np.asarray(beta_hat)[::every] * _DEG, np.nan).tolist()}
+                                                             np.asarray(beta_hat)[::every] * DEG, np.nan).tolist()}
     out["wall_s"] = time.perf_counter() - t0
     return out
 

@@ -1,0 +1,121 @@
+"""``run``, ``demo`` and ``export-ssp``: a scenario's closed loop, with metrics and a plot, or as an SSP package."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from .common import kv, run_args
+
+__all__ = ["register", "DEMO_SCENARIO"]
+
+DEMO_SCENARIO = "park2018_case2"
+
+
+def _sensor_offsets(scenario: str, overrides: dict) -> str:
+    """The scenario's non-zero sensor biases, e.g. ``yaw_rate 0.00873 rad/s``."""
+    from ..params import declared_fields
+    from ..plant.sensors import SensorConfig
+    from ..units import unit_of_quantity
+    from ..scenarios import get_scenario
+
+    sensors = get_scenario(scenario, **(overrides or {})).sensors
+    biases = {f.name[:-len("_bias")]: (float(sensors.get(f.name, 0.0)), unit_of_quantity(info.quantity))
+              for f, info in declared_fields(SensorConfig) if f.name.endswith("_bias")}
+    return ", ".join(f"{name} {value:.3g} {unit}" for name, (value, unit) in biases.items() if value)
+
+
+def _assumptions(estimators) -> list[tuple[str, str]]:
+    """``(instance, needs)`` of the run's estimators that state sensor assumptions."""
+    from ..cosim.assembly import estimator_instances
+    from ..fmi.catalogue import fmu_spec
+
+    found = [(inst, getattr(fmu_spec(fmu).model_class, "needs", ""))
+             for inst, fmu in estimator_instances(estimators)]
+    return [(inst, text) for inst, text in found if text]
+
+
+def _run(args, estimators, out_dir) -> int:
+    from ..studies.runs import run_scenario
+
+    def progress(frac):
+        print(f"\r  {frac * 100:5.1f} %", end="", file=sys.stderr, flush=True)
+
+    controller = None if args.controller in (None, "none") else args.controller
+    print(f"running {args.scenario}" + (f" with {', '.join(estimators)}" if estimators else "")
+          + (f", controller {controller}" if controller else "") + f" -> {out_dir}", file=sys.stderr)
+    run = run_scenario(args.scenario, estimators, controller, out_dir=out_dir, duration=args.duration,
+                       step=args.step, record_every=args.record_every, fmu_dir=args.fmu_dir,
+                       params=kv(args.param, "--param"), overrides=kv(args.set, "--set"),
+                       control_source=getattr(args, "control_source", None),
+                       progress=progress if sys.stderr.isatty() else None,
+                       master=getattr(args, "master", "fmpy"), scheme=getattr(args, "scheme", "gauss-seidel"))
+    print("", file=sys.stderr)
+    m = run.metrics
+    s = m["summary"]
+    print(f"scenario {m['scenario']['name']}: {m['scenario']['description']}")
+    print(f"  truth: max |beta| {s['max_abs_beta_deg']:.2f} deg, max |ay| {s['max_abs_ay']:.2f} m/s2, "
+          f"max |yaw rate| {s['max_abs_yaw_rate_deg_s']:.1f} deg/s, final speed {s['final_speed']:.2f} m/s")
+    offsets = _sensor_offsets(args.scenario, kv(args.set, "--set"))
+    if offsets:
+        print(f"  sensor offsets: {offsets}")
+    print(f"  {m['us_per_step']:.1f} us per step, {m['real_time_factor']:.1f}x real time "
+          f"({m['simulation_wall_time']:.1f} s wall)")
+    if run.table():
+        print()
+        print(run.table())
+    needs = _assumptions(estimators)
+    if needs:
+        print("\nwhat these methods assume of their sensors (outside it their error grows):")
+        for name, text in needs:
+            print(f"  {name}: {text}")
+    warnings = [msg for msg in m["messages"] if msg.startswith(("[warning]", "[error]"))]
+    if warnings:
+        print("\nFMU messages:")
+        for msg in warnings[:20]:
+            print("  " + msg)
+    print(f"\nwrote {Path(out_dir) / 'results.csv'}, metrics.json, sideslip.png")
+    return 0
+
+
+def _cmd_run(args) -> int:
+    out = args.out or str(Path("out") / args.scenario)
+    return _run(args, args.estimator or [], out)
+
+
+def _cmd_demo(args) -> int:
+    from ..fmi.catalogue import fmu_names
+
+    args.scenario = args.scenario or DEMO_SCENARIO
+    return _run(args, fmu_names("estimator"), args.out or str(Path("out") / "demo"))
+
+
+def _cmd_export_ssp(args) -> int:
+    from ..cosim.ssp import export_ssp
+
+    controller = None if args.controller in (None, "none") else args.controller
+    out = export_ssp(args.out, args.scenario, args.estimator or (), controller, params=kv(args.param, "--param"),
+                     control_source=args.control_source, overrides=kv(args.set, "--set"),
+                     duration=args.duration, step=args.step, fmu_dir=args.fmu_dir)
+    print(f"wrote {out}")
+    return 0
+
+
+def register(sub) -> None:
+    run = sub.add_parser("run", help="run a scenario in closed loop")
+    run_args(run, True)
+    run.add_argument("--estimator", action="append", help="estimator FMU (repeatable)")
+    run.set_defaults(func=_cmd_run)
+    demo = sub.add_parser("demo", help=f"run {DEMO_SCENARIO} with every estimator, print metrics, write a plot")
+    run_args(demo, False)
+    demo.set_defaults(func=_cmd_demo)
+    ssp = sub.add_parser("export-ssp", help="write a scenario's closed loop as an SSP 1.0 package (FMUs inside)")
+    ssp.add_argument("out", metavar="OUT.ssp", help="the package to write")
+    ssp.add_argument("--scenario", required=True, help="scenario name (see list)")
+    ssp.add_argument("--estimator", action="append", help="estimator FMU (repeatable)")
+    ssp.add_argument("--controller", default="none", help="controller FMU or 'none'")
+    ssp.add_argument("--control-source", help="estimator instance or 'truth' feeding the controller")
+    ssp.add_argument("--duration", type=float, help="DefaultExperiment stop time [s] (default: the scenario's)")
+    ssp.add_argument("--step", type=float, default=1e-3, help="fixed communication step [s] (default 1e-3)")
+    ssp.add_argument("--set", action="append", metavar="KEY=VALUE", help="scenario override")
+    ssp.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE", help="FMU parameter override")
+    ssp.set_defaults(func=_cmd_export_ssp)

@@ -1,0 +1,100 @@
+"""The cases of the control evaluation: rows (controller and what feeds it), scenarios, conditions, seeds."""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+
+from ...fmi.catalogue import fmu_spec
+from ...params import declared_fields
+from ...plant.maneuvers import parse_maneuver
+from ...scenarios import FMVSS_FACTORS
+from ..accuracy import PAPER_METHODS
+
+
+CONDITIONS = ("sensors", "sensors+mismatch")
+FMVSS_FAMILY = "fmvss126_suv_mu08"
+SCENARIOS = ("park2018_case5", "park2018_case3", "control_launch_turn_sonata", "bench_straight_sonata_long",
+             "bench_changing_mu_sonata")
+DURATION = {"bench_straight_sonata_long": 40.0}
+"""Scenarios run shorter than defined [s] (the straight drive: 10 s at 10 m/s, 0.8 m/s2 to 30 m/s, 5 s at it)."""
+LAUNCH = "control_launch_turn_sonata"
+
+
+@dataclass(frozen=True)
+class Source:
+    """One row: a controller fed by the truth or an estimator (hardened profile), or no control."""
+
+    label: str
+    controller: str | None = None          #: FMU name of the controller, None for no control
+    estimator: str | None = None           #: estimator name, None for the plant's truth
+    params: tuple = ()                     #: ((name, value), ...) of the controller on top of its defaults
+
+
+BEST_TWO = ("Yoon2014DualKF", "Kim2016SteeringEKF")
+"""The two hardened estimators with the smallest mean sideslip error on the benchmark (docs/benchmark.md)."""
+
+SOURCES = (
+    Source("none"),
+    Source("LQR published / truth", "LqrDycController", None, (("control_profile", 0),)),
+    Source("LQR / truth", "LqrDycController"),
+    *(Source(f"LQR / {e}", "LqrDycController", e) for e in PAPER_METHODS),
+    Source("LQR / SideslipFusion", "LqrDycController", "SideslipFusion"),
+    Source(f"StabilityController ({BEST_TWO[0]})", "StabilityController", BEST_TWO[0]),
+    Source("StabilityController (SideslipFusion)", "StabilityController", "SideslipFusion"),
+    Source("ESC / truth", "BaselineEsc"),
+    *(Source(f"ESC / {e}", "BaselineEsc", e) for e in BEST_TWO),
+)
+"""The rows of the evaluation."""
+
+
+@dataclass(frozen=True)
+class ControlCase:
+    """A scenario under a condition with a seed, for one row."""
+
+    scenario: str
+    condition: str
+    seed: int
+    source: Source
+    params: tuple = ()                     #: controller parameter overrides (tuning)
+    overrides: tuple = ()                  #: scenario overrides
+
+
+QUICK_FACTORS = (3.5, 5.0, 6.5)
+"""FMVSS 126 amplitudes of ``--quick``: the first the uncontrolled SUV fails, the first with the
+displacement criterion, the largest."""
+
+
+def with_controller_params(case: ControlCase, params) -> ControlCase:
+    """The case with the controller parameters ``params`` (``(name, value)`` pairs) its controller has."""
+    if not case.source.controller:
+        return case
+    names = {f.name for f, _ in declared_fields(fmu_spec(case.source.controller).config_class)}
+    return dataclasses.replace(case, params=case.params + tuple((k, v) for k, v in params if k in names))
+
+
+def fmvss_names(factors=FMVSS_FACTORS, directions=("", "_right"), family: str = FMVSS_FAMILY) -> list[str]:
+    """Scenario names of the FMVSS 126 runs."""
+    return [f"{family}_a{f:.1f}{d}" for f in factors for d in directions]
+
+
+def control_cases(sources=SOURCES, conditions=CONDITIONS, seeds=2, factors=FMVSS_FACTORS, directions=("", "_right"),
+                  scenarios=SCENARIOS) -> list[ControlCase]:
+    """Every scenario x condition x seed x row."""
+    names = [*fmvss_names(factors, directions), *scenarios]
+    return [ControlCase(n, c, s, src) for n in names for c in conditions for s in range(seeds) for src in sources]
+
+
+def steer_times(scenario) -> tuple[float, float, float]:
+    """Beginning of steer, completion of steer [s] and sine frequency [Hz] of a sine-with-dwell scenario
+    (from its maneuver, so that overrides such as ``maneuver_t_start`` are followed)."""
+    man = parse_maneuver(scenario.maneuver)
+    return man.t_start, man.completion_of_steer, man.frequency
+
+
+def scenario_mu(scenario) -> float:
+    """Friction of a scenario for the controller: its ``mu`` hint, else its road friction (of a time table
+    ``"t0:v0, t1:v1, ..."``, the highest: the controller is set for the road at its best)."""
+    if "mu" in scenario.hints:
+        return float(scenario.hints["mu"])
+    return max(float(item.rpartition(":")[2]) for item in str(scenario.road_mu).split(","))
