@@ -1,5 +1,6 @@
-"""The layers of DESIGN.md, checked mechanically: which package may import which, no import circles,
-the FMU catalogue against the wrappers, and a non-editable install that lists and builds every FMU."""
+"""The layers of docs/design.md, checked mechanically: the repository's top level, which package may import
+which, no import circles, the FMU catalogue against the wrappers, and a non-editable install that lists and
+builds every FMU."""
 import re
 import subprocess
 import sys
@@ -12,7 +13,7 @@ import pytest
 
 from sideslip.estimators import ESTIMATORS
 from sideslip.fmi.bundle import PACKAGE_DIR, bundled_files, module_imports, module_name, wrapper_script
-from sideslip.fmi.catalogue import CATALOGUE, fmu_names
+from sideslip.fmi.catalogue import CATALOGUE, PLANT_PACKAGE, PLANT_SIDE, fmu_names
 from sideslip.fmi.slave import SideslipSlave
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -111,12 +112,21 @@ def test_importing_the_library_core_pulls_in_neither_pythonfmu_nor_fmpy():
     assert out.strip() == "[]"
 
 
+def test_the_top_level_is_the_projects_layout():
+    tracked = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.split()
+    top = {path.split("/")[0] for path in tracked}
+    assert top == {"pyproject.toml", "fmu_src", "build_fmu.py", "plant_fmus", "examples", "tests", "README.md",
+                   "docs", "mkdocs.yml", ".ci", ".gitignore"}
+
+
 # ---------------------------------------------------------------- the FMU catalogue
 def test_every_catalogue_entry_has_its_wrapper_and_no_wrapper_is_outside_the_catalogue():
-    wrappers = {p.stem for p in (ROOT / "fmu_src").glob("*_fmu.py")}
-    assert wrappers == {spec.module for spec in CATALOGUE.values()}
+    """Estimator and controller wrappers in fmu_src/, the plant side's in plant_fmus/."""
+    for folder, plant_side in (("fmu_src", False), ("plant_fmus", True)):
+        wrappers = {p.stem for p in (ROOT / folder).glob("*_fmu.py")}
+        assert wrappers == {s.module for s in CATALOGUE.values() if (s.role in PLANT_SIDE) == plant_side}
     for spec in CATALOGUE.values():
-        assert wrapper_script(spec) == ROOT / "fmu_src" / f"{spec.module}.py"
+        assert wrapper_script(spec) == ROOT / spec.source_folder / f"{spec.module}.py"
 
 
 @pytest.mark.parametrize("name", sorted(CATALOGUE))
@@ -125,9 +135,9 @@ def test_a_wrapper_binds_its_class_and_takes_everything_from_the_catalogue(name)
     import inspect
 
     spec = CATALOGUE[name]
-    module = importlib.import_module(spec.module)
+    module = importlib.import_module(spec.import_name)
     classes = [c for _, c in inspect.getmembers(module, inspect.isclass)
-               if issubclass(c, SideslipSlave) and c.__module__ == spec.module]
+               if issubclass(c, SideslipSlave) and c.__module__ == spec.import_name]
     assert [c.__name__ for c in classes] == [name]
     cls = classes[0]
     assert (cls.model_class, cls.config_class, cls.role, cls.description) == (
@@ -142,9 +152,13 @@ def test_the_catalogue_estimators_are_the_library_estimators():
         assert CATALOGUE[name].model_class is ESTIMATORS[name]
 
 
-def test_pyproject_installs_every_wrapper():
-    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
-    assert sorted(config["tool"]["setuptools"]["py-modules"]) == sorted(s.module for s in CATALOGUE.values())
+def test_pyproject_installs_every_wrapper_and_package():
+    setup = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert sorted(setup["py-modules"]) == sorted(s.module for s in CATALOGUE.values() if s.role not in PLANT_SIDE)
+    assert setup["package-dir"] == {"": "fmu_src", PLANT_PACKAGE: "plant_fmus"}
+    packages = {".".join(p.parent.relative_to(ROOT / "fmu_src").parts)
+                for p in PACKAGE_DIR.rglob("__init__.py")}
+    assert sorted(setup["packages"]) == sorted(packages | {PLANT_PACKAGE})
 
 
 @pytest.mark.parametrize("name", ["VehiclePlant", "Park2018Observer", "StabilityController"])
@@ -162,8 +176,8 @@ def test_a_non_editable_install_lists_and_builds_every_fmu(tmp_path):
     import shutil
 
     source = tmp_path / "source"                     # a clean copy: setuptools builds in the source tree
-    shutil.copytree(ROOT / "fmu_src", source / "fmu_src",
-                    ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
+    for folder in ("fmu_src", "plant_fmus"):
+        shutil.copytree(ROOT / folder, source / folder, ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
     for name in ("pyproject.toml", "README.md"):
         shutil.copy2(ROOT / name, source / name)
     target = tmp_path / "site"

@@ -1,6 +1,6 @@
 """The signal catalogue: every signal that crosses an FMU boundary, defined once.
 
-Names are the binding I/O contract of DESIGN.md (never renamed; extras may be added).
+Names are the binding I/O contract of ``docs/design.md`` (never renamed; extras may be added).
 Frames: ISO 8855 vehicle axes (x forward, y left, z up); global ENU (X east, Y north);
 yaw counter-clockwise from east; ``beta = atan2(vy, vx)``; steering positive to the left.
 FMU wrappers declare their ports by name from here, so unit, declared type, range and

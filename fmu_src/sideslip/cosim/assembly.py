@@ -31,7 +31,7 @@ __all__ = ["Component", "Interface", "MasterError", "INPUT_ALIASES", "PLANT", "S
            "scenario_components"]
 
 INPUT_ALIASES = {"Mz_dyc": ("Mz_cmd",)}
-"""Input name -> output names that feed it besides the equal name (DESIGN.md renames)."""
+"""Input name -> output names that feed it besides the equal name (the renames of the contract, docs/design.md)."""
 
 PLANT, SENSORS, DRIVER = "VehiclePlant", "VehicleSensors", "ManeuverDriver"
 """The FMUs of every scenario loop (instances ``plant``, ``sensors``, ``driver``)."""

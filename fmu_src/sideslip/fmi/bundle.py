@@ -46,9 +46,12 @@ def wrapper_script(spec: FmuSpec) -> Path:
     FileNotFoundError
         When the module is not importable.
     """
-    found = importlib.util.find_spec(spec.module)
+    try:
+        found = importlib.util.find_spec(spec.import_name)
+    except ModuleNotFoundError:                     # the plant side's package itself is missing
+        found = None
     if found is None or not found.origin:
-        raise FileNotFoundError(f"FMU {spec.name}: wrapper module {spec.module!r} is not importable "
+        raise FileNotFoundError(f"FMU {spec.name}: wrapper module {spec.import_name!r} is not importable "
                                 "(is sideslip-fmu installed?)")
     return Path(found.origin)
 

@@ -1,8 +1,9 @@
 """The FMU catalogue: one table of every FMU the project builds.
 
 Each entry names the FMU (its model identifier, the class of its wrapper), the wrapper module
-(a top-level module ``fmu_src/<module>.py``, unique to this project because all FMUs of a host
-share one Python interpreter), the library model and configuration it exposes, its role in a
+(``fmu_src/<module>.py`` for the estimators and controllers, ``plant_fmus/<module>.py`` for the plant
+side, :data:`PLANT_SIDE`; a name unique to this project because all FMUs of a host share one Python
+interpreter), the library model and configuration it exposes, its role in a
 closed loop and its description.  The co-simulation assembly, the builder, the command
 line and the documentation read this table; a wrapper holds only its class statement and takes
 the rest from here (:class:`sideslip.fmi.slave.SideslipSlave`).
@@ -16,13 +17,18 @@ import importlib
 from dataclasses import dataclass
 from functools import cached_property
 
-__all__ = ["FmuSpec", "CATALOGUE", "ROLES", "HELD_OUTPUT", "fmu_spec", "fmu_names"]
+__all__ = ["FmuSpec", "CATALOGUE", "ROLES", "PLANT_SIDE", "PLANT_PACKAGE", "HELD_OUTPUT", "fmu_spec", "fmu_names"]
 
 HELD_OUTPUT = "inputs_held"
 """The output every FMU adds after its model's: how many inputs were held or clamped in the last step."""
 
 ROLES = ("driver", "plant", "sensors", "estimator", "controller")
 """Roles in a closed loop, in the order the components run."""
+
+PLANT_SIDE = ("driver", "plant", "sensors")
+"""The roles whose wrappers are in ``plant_fmus/``."""
+PLANT_PACKAGE = "sideslip_plant_fmus"
+"""The package ``plant_fmus/`` is installed as."""
 
 
 _ROOT = __name__.split(".")[0]
@@ -45,7 +51,7 @@ class FmuSpec:
     name : str
         FMU name: model identifier, file name ``<name>.fmu`` and wrapper class name.
     module : str
-        Wrapper module (``fmu_src/<module>.py``).
+        Wrapper module's name (``fmu_src/<module>.py``, ``plant_fmus/<module>.py`` for the plant side).
     model, config : str
         Library model class and its configuration dataclass, as ``"module:attribute"``.
     role : str
@@ -110,6 +116,16 @@ class FmuSpec:
         if hasattr(config, "numeric_parameters"):
             out.update(config.numeric_parameters())
         return out
+
+    @property
+    def import_name(self) -> str:
+        """The wrapper module's import name as installed."""
+        return f"{PLANT_PACKAGE}.{self.module}" if self.role in PLANT_SIDE else self.module
+
+    @property
+    def source_folder(self) -> str:
+        """The wrapper's folder in the repository."""
+        return "plant_fmus" if self.role in PLANT_SIDE else "fmu_src"
 
     @property
     def library_module(self) -> str:

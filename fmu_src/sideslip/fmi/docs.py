@@ -54,7 +54,7 @@ def _markdown(docstring: str) -> str:
 
 def _value_references(spec: FmuSpec) -> dict[str, int]:
     """Value reference of every variable, from the wrapper class itself (as the build declares them)."""
-    cls = getattr(importlib.import_module(spec.module), spec.name)
+    cls = getattr(importlib.import_module(spec.import_name), spec.name)
     instance = cls(instance_name="docs", resources=".")
     return {v.name: vr for vr, v in instance.vars.items()}
 
@@ -77,7 +77,7 @@ def _page(spec: FmuSpec) -> str:
     module = importlib.import_module(model.__module__)
     lines = [f"# {spec.name}", "",
              f"*{spec.role}* · library model `{model.__module__}.{model.__name__}` · configuration "
-             f"`{spec.config_class.__name__}` · wrapper `fmu_src/{spec.module}.py`", "",
+             f"`{spec.config_class.__name__}` · wrapper `{spec.source_folder}/{spec.module}.py`", "",
              spec.description + ".", "",
              "## What it implements", "", _markdown(module.__doc__ or ""), "",
              "## Inputs", ""]
