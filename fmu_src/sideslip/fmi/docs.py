@@ -74,9 +74,9 @@ def _ports(names, vrs) -> list[str]:
 def _page(spec: FmuSpec) -> str:
     vrs = _value_references(spec)
     model = spec.model_class
-    module = importlib.import_module(model.__module__)
+    module = importlib.import_module(spec.library_module)         # the module (or package) the catalogue names
     lines = [f"# {spec.name}", "",
-             f"*{spec.role}* · library model `{model.__module__}.{model.__name__}` · configuration "
+             f"*{spec.role}* · library model `{spec.library_module}.{model.__name__}` · configuration "
              f"`{spec.config_class.__name__}` · wrapper `{spec.source_folder}/{spec.module}.py`", "",
              spec.description + ".", "",
              "## What it implements", "", _markdown(module.__doc__ or ""), "",
@@ -174,7 +174,7 @@ def _index() -> str:
     for spec in sorted(CATALOGUE.values(), key=lambda s: (ROLES.index(s.role), s.name)):
         n_par = sum(1 for _, info in declared_fields(spec.config_class) if info.fmu) + sum(
             len(g.parameters()) for g in (ChoiceIndices(spec.config_class), *_groups(spec)))
-        doc = importlib.import_module(spec.model_class.__module__).__doc__ or ""
+        doc = importlib.import_module(spec.library_module).__doc__ or ""
         first = _markdown(doc.split("\n\n")[0]).replace("\n", " ")
         lines.append(f"| [{spec.name}]({spec.name}.md) | {spec.role} | {len(spec.inputs)} | {len(spec.outputs)} | "
                      f"{n_par} | {first} |")

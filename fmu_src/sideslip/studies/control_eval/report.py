@@ -46,7 +46,8 @@ def summarise(rows: list[dict]) -> dict:
     for (cond, fam, src), e in fams.items():
         rs = e.pop("runs")
         e["failed"] = sorted(e["failed"], key=lambda n: (float(n.split("_")[0][1:]), n))
-        e.update(yaw_rate_ratio_1s=max(r["yaw_rate_ratio_1s"] for r in rs),
+        e.update(factors=sorted({r["factor"] for r in rs}),
+                 yaw_rate_ratio_1s=max(r["yaw_rate_ratio_1s"] for r in rs),
                  yaw_rate_ratio_1p75s=max(r["yaw_rate_ratio_1p75s"] for r in rs),
                  lateral_1p07s=min((r["lateral_1p07s"] for r in rs if r["factor"] >= 5.0), default=float("nan")),
                  **{k: max(r[k] for r in rs) for k in ("max_abs_beta_deg", "saturated_pct", "max_dMz_dt")},
@@ -67,8 +68,11 @@ def format_control_evaluation(summary: dict) -> str:
     for cond, scen in summary.items():
         for name, rows in scen.items():
             if name.startswith("fmvss126_"):
-                out += [f"**FMVSS 126 sine with dwell, {name}, {cond}** (every amplitude 1.5A-6.5A, both directions; "
-                        "worst values over amplitudes and seeds)", "",
+                factors = next(iter(rows.values())).get("factors", [])
+                amplitudes = ", ".join(f"{f:g}A" for f in factors) if len(factors) <= 4 else \
+                    f"{factors[0]:g}A-{factors[-1]:g}A"
+                out += [f"**FMVSS 126 sine with dwell, {name}, {cond}** (amplitudes {amplitudes}; worst values over "
+                        "amplitudes, directions and seeds)", "",
                         "| row | passes where uncontrolled fails | r(1.00 s) | r(1.75 s) | lateral 1.07 s [m] | "
                         "max abs beta [deg] | RMS yaw-rate err [deg/s] | RMS beta err [deg] | effort [kN m s] | "
                         "saturated [%] | RMS dMz/dt [kN m/s] | max dMz/dt [kN m/s] | failed |",
