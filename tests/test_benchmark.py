@@ -82,6 +82,7 @@ ROWS = tuple(r for r in bm.ROWS if r.label in ("predict-zero", "LinearBicycleObs
                                                "Nguyen2012DACMRKF/published"))
 
 
+@pytest.mark.slow
 def test_a_tiny_grid_end_to_end(tmp_path):
     cases = bm.cases(["bench_jturn_coms_ice"], ("nominal", "sensors+mismatch"), seeds=2)
     results = bm.run_benchmark(cases, ROWS, workers=2, progress=False)

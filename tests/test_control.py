@@ -402,6 +402,7 @@ def test_fmvss126_metrics_on_a_synthetic_run():
     assert fmvss126_metrics(a, t_bos, t_cos, 5.0)["lateral_1p07s"] == pytest.approx(2.14, rel=1e-3)
 
 
+@pytest.mark.slow
 def test_runner_feeds_the_controller_truth_or_an_estimator_and_its_command_to_the_plant(fmu_dir):
     from sideslip.cosim.assembly import scenario_components
     from sideslip.studies.runs import run_scenario

@@ -370,6 +370,7 @@ def park_case3():
     return run_library("park2018_case3", list(ESTIMATORS))
 
 
+@pytest.mark.slow
 def test_offset_compensator_converges_to_the_injected_offsets(park_case3):
     r = park_case3
     sc = get_scenario("park2018_case3").sensors
@@ -421,6 +422,7 @@ SPD_SCENARIOS = ["park2018_case1", "park2018_case2", "park2018_case3", "park2018
                  "yoon2014_jturn_ice_banked", "kim2016_track_80"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", SPD_SCENARIOS)
 def test_covariances_stay_symmetric_positive_definite(scenario):
     """Every filter's P after every step, every estimator, on the scenarios of every paper (the

@@ -178,6 +178,7 @@ def test_magnetometer_jacobian_and_unit_norm(psi, phi):
     assert np.linalg.norm(magnetometer_h(psi, phi, field)) == pytest.approx(1.0)
 
 
+@pytest.mark.slow
 def test_magnetometer_model_matches_the_sensor_model():
     """The heading EKF's eq 22 and the sensors' magnetometer are the same rotation."""
     sc = get_scenario("yoon2014_jturn_asphalt")
@@ -226,6 +227,7 @@ def test_measurement_shifting_with_zero_delay_equals_the_plain_filter():
         np.testing.assert_array_equal(res[f"shift.{out}"], res[f"plain.{out}"])
 
 
+@pytest.mark.slow
 def test_yoon_identifies_the_gps_delay_and_the_accelerometer_biases():
     res, est = _yoon_run("yoon2014_dlc_ice")
     sc = get_scenario("yoon2014_dlc_ice")
@@ -235,6 +237,7 @@ def test_yoon_identifies_the_gps_delay_and_the_accelerometer_biases():
     assert est.b_r == pytest.approx(sc.sensors["yaw_rate_bias"], abs=math.radians(0.05))
 
 
+@pytest.mark.slow
 def test_yoon_tracks_heading_roll_and_bias_on_a_banked_road():
     """Roll = bank + body roll from gyro and magnetometer, so the bank's gravity is not taken for a bias."""
     res, est = _yoon_run("yoon2014_dlc_ice_banked")
@@ -246,6 +249,7 @@ def test_yoon_tracks_heading_roll_and_bias_on_a_banked_road():
     assert res["y.bias_ay_hat"][-1] == pytest.approx(sc.sensors["ay_bias"], abs=0.05)
 
 
+@pytest.mark.slow
 def test_yoon_flags_magnetic_disturbances():
     res, _ = _yoon_run("yoon2014_slalom_asphalt")
     truth = res["sensors.mag_disturbance_active"] > 0.5

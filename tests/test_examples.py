@@ -6,6 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.slow          # every test here runs whole scenarios in closed loop
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 

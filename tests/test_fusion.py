@@ -215,6 +215,7 @@ def test_the_delay_state_finds_a_receiver_delay_other_than_its_prior():
     assert state["rms"] < 0.7 * apart["rms"] and state["coverage95"] > 0.95 and state["off_while_valid"] == 0.0
 
 
+@pytest.mark.slow
 def test_an_imm_fix_against_an_indefinite_stored_covariance_is_skipped():
     """The IMM's mixing moves its filters but not their stored samples; a later fix's corrections left one stored
     covariance indefinite on this drive (friction 0.9 -> 0.4 under a sine steer, seed 3), and the fix compared with
@@ -227,6 +228,7 @@ def test_an_imm_fix_against_an_indefinite_stored_covariance_is_skipped():
     assert m["rms"] < 1.5 and m["max"] < 5.0 and est.restarts == 0
 
 
+@pytest.mark.slow
 def test_a_drifting_gyro_offset_is_followed_not_put_into_the_sideslip_of_a_straight_drive():
     """Straight ahead GNSS cannot tell a drifting heading from a sideslip drifting the other way; a gyro offset that
     wanders faster than the filter allows went into the sideslip through the accelerometer offset / bank split (the
@@ -243,6 +245,7 @@ def test_a_drifting_gyro_offset_is_followed_not_put_into_the_sideslip_of_a_strai
     assert rms[None] < 0.06 < 0.15 < rms[1.7e-5], rms
 
 
+@pytest.mark.slow
 def test_a_road_bank_is_a_state_of_its_own_not_a_tire_force():
     """On a banked road the accelerometer reads the tires' force, a_y + g sin(bank): taking the bank for a sensor
     offset puts it into the tire forces (measured: 0.58 deg RMS, 1 % within 1.96 std, against 0.16 deg, 99.6 %)."""
@@ -395,6 +398,7 @@ def test_a_magnetometer_not_wired_or_disturbed_is_ignored(slalom):
     assert np.array_equal(off["valid"], on["valid"])
 
 
+@pytest.mark.slow
 def test_a_disturbance_whose_field_norm_is_near_unity_is_gated():
     """A disturbance added to the Earth field (4 episodes over 40 % of the first 30 s, norms 0.5-2) can leave the
     reading's norm within the norm gate at some headings; its heading, tens of degrees off, then passes for the car's
@@ -414,6 +418,7 @@ def test_a_disturbance_whose_field_norm_is_near_unity_is_gated():
         assert rows[label]["rms"] < 1.1 * rows["off"]["rms"] and rows[label]["off_while_valid"] == 0.0, label
 
 
+@pytest.mark.slow
 def test_a_magnetometer_whose_hard_iron_was_not_removed_is_found_and_left_out():
     """A hard iron left in the readings (a constant vector in the car's axes, here 0.05-0.3 of the field) keeps the
     field's norm near unity and puts on the heading an error that turns with the heading; each reading alone passes

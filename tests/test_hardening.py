@@ -42,6 +42,7 @@ def circle():
 
 
 # ---------------------------------------------------------------- the methods
+@pytest.mark.slow
 def test_nguyen_hardened_holds_a_long_circle_with_a_gyro_offset(circle):
     """0.5 deg/s of gyro offset, GPS at 10 Hz 0.1 s late, 70 s in a circle: as published the estimate runs
     along the unobservable direction; the offset state and the delay line hold it."""
@@ -66,6 +67,7 @@ def test_yoon_hardened_does_not_need_the_sites_inclination(circle):
     assert est.inclination == pytest.approx(55 * DEG, abs=3 * DEG)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("factor", [0.7, 1.3])
 def test_pi_hardened_stays_bounded_in_a_steady_circle_with_a_stiffness_error(circle, factor):
     """The vehicle file's stiffness 30 % off, Magic Formula tires: the identified stiffness stays within
@@ -230,6 +232,7 @@ def test_kinematic_check_passes_offsets_and_a_bank_and_sees_a_slide_the_estimate
     assert t[np.argmax(sigma > 1.5 * DEG)] <= 6.8
 
 
+@pytest.mark.slow
 def test_kinematic_check_makes_a_linear_tire_estimate_not_valid_in_a_balanced_slide():
     """Kim 2016 on the test set's friction drop: with the check its estimate is never valid while more than
     3 deg off for more than 0.5 s; without it, it is (sideslip.estimators.model_trust)."""

@@ -13,6 +13,8 @@ import pytest
 from sideslip.studies.papers import kim2016, nguyen2012, park2018, pi2011, yoon2014
 from sideslip.studies.runs import run_jobs
 
+pytestmark = pytest.mark.slow          # every test here runs whole scenarios in closed loop
+
 MARGIN = 1.15
 """Reached figures may grow by 15 % before a test fails."""
 

@@ -12,6 +12,8 @@ import pytest
 from sideslip.studies.control_eval import (FMVSS_FAMILY, SOURCES, ControlCase, control_evaluation, run_control_case,
                                            summarise)
 
+pytestmark = pytest.mark.slow          # every test here runs whole scenarios in closed loop
+
 ROWS = {s.label: s for s in SOURCES}
 CHOSEN = ("none", "LQR / Yoon2014DualKF", "LQR / Kim2016SteeringEKF", "ESC / truth",
           "StabilityController (Yoon2014DualKF)")

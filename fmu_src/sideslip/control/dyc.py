@@ -21,14 +21,9 @@ Two profiles (parameter ``control_profile``):
   (:meth:`~sideslip.control.reference.ReferenceModel.limited_steer`).
 
 Why the drivable profile leaves the feed-forward out: eq 24 makes the *sideslip* follow its
-reference (lag ``tau_beta`` = 0.15 s, faster than the car's own sideslip response), and on every
-maneuver of the training set it does so at the cost of the yaw rate, effort and saturation.  On
-the FMVSS 126 tuning runs (3 seeds, ``sensors``) the published feed-forward gave RMS yaw-rate
-errors of 9.7 deg/s against 6.3 without it, twice the effort, 24 % of the time saturated against
-0 %, and a sideslip error of 2.3 against 3.1 deg; on the slalom of the small car (``sensors``) 7.4
-against 1.2 deg/s.  Band-limited to 2 Hz so that steering noise stays below 50 N m, it acts
-late: 9.4 deg/s on the FMVSS runs, and the small car spins on the slalom (52 deg of sideslip)
-(docs, "Stability control").
+reference (lag ``tau_beta`` = 0.15 s, faster than the car's own sideslip response), at the cost of
+the yaw rate, effort and saturation on every training maneuver; band-limited so that steering noise
+stays quiet, it acts late (the figures: docs, "Stability control").
 
 No wind-up: the controller has no integrator.  Its states are the reference lags, the
 feed-forward filter (driven by the steering alone), the transfer weights and the rate limiter,

@@ -20,9 +20,8 @@ what the LQR of :mod:`sideslip.control.dyc` buys over it:
   the estimator's ``valid``.
 
 The gains were chosen on training maneuvers (the LQR tuning set :data:`~sideslip.studies.control_eval.TUNING_MANEUVERS`,
-the small car's slalom and the Sonata's brake in a turn on snow of the estimator benchmark's training set, 2 seeds,
-``sensors+mismatch``): ``k_p`` 4 against 2 and 8, ``k_beta`` 10 against 0, 50 and 200 (at 50 and more the limiter
-overshoots: 22-27 deg of sideslip in the brake in a turn on snow against 11).
+the small car's slalom and the Sonata's brake in a turn on snow of the estimator benchmark's training set,
+``sensors+mismatch``); a stiffer sideslip limiter overshoots (docs, "Design history").
 
 Both parts then pass the fade-in, bumpless transfer, rate limit and saturation of
 :mod:`sideslip.control.base`.

@@ -16,7 +16,7 @@ from .inputs import InputConditioner
 from .magnetometer import MagnetometerHeading
 from .mode import FusionModel, Mode
 from .models import Geometry, gnss_measurement, magnetometer_model
-from .state import Fs, per_state, state_size
+from .state import Fs, initial_state
 from .tire_model import axle_stiffness
 
 __all__ = ["SideslipFusion"]
@@ -44,36 +44,12 @@ class SideslipFusion(Estimator):
         cfg, ts, v = self.config, self.Ts, self.vehicle
         self._geometry = Geometry.from_vehicle(v)
         self._conditioner = InputConditioner(v, ts, cfg.yaw_acc_cutoff, cfg.combined_slip, cfg.mu_min, cfg.mu_max)
-        n = state_size(cfg.delay_state, cfg.use_magnetometer)
-        x0 = np.zeros(n)
-        if cfg.delay_state:
-            x0[_D_GNSS] = cfg.gps_latency
-        x0[Fs.LN_MU] = math.log(cfg.mu0)
-        p0 = per_state({Fs.VX: 1.0, Fs.VY: 1.0, Fs.PSI: 10.0, Fs.B_R: cfg.gyro_offset_std0,
-                        Fs.B_AX: cfg.accel_offset_std0, Fs.B_AY: cfg.accel_offset_std0, Fs.D_DELTA: cfg.steer_offset_std0,
-                        Fs.LN_CF: cfg.stiffness_std0, Fs.LN_CR: cfg.stiffness_std0, Fs.LN_MU: cfg.mu_std0,
-                        Fs.E_W: cfg.radius_error_std0, Fs.G_Y: cfg.bank_std0, Fs.D_GNSS: cfg.gps_latency_std,
-                        Fs.B_MAG: cfg.mag_offset_std0}, n) ** 2
-        p_cap = p0.copy()
-        p_cap[[Fs.VX, Fs.VY, Fs.PSI]] = np.inf                  # velocity and heading: no cap
-        walk = math.sqrt(ts)
-        q = per_state({Fs.VX: cfg.sigma_accel * ts, Fs.VY: cfg.sigma_accel * ts, Fs.PSI: cfg.sigma_gyro * ts,
-                       Fs.B_R: cfg.gyro_offset_walk * walk, Fs.B_AX: cfg.accel_offset_walk * walk,
-                       Fs.B_AY: cfg.accel_offset_walk * walk, Fs.D_DELTA: 1e-6 * walk,
-                       Fs.LN_CF: cfg.stiffness_walk * walk, Fs.LN_CR: cfg.stiffness_walk * walk,
-                       Fs.LN_MU: cfg.mu_walk * walk, Fs.E_W: 1e-5 * walk, Fs.G_Y: cfg.bank_walk * walk,
-                       Fs.D_GNSS: cfg.delay_walk * walk if cfg.delay_state else 0.0,
-                       Fs.B_MAG: cfg.mag_offset_walk * walk}, n) ** 2
-        bounds = ((_LN_CF, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
-                  (_LN_CR, math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
-                  (_LN_MU, math.log(cfg.mu_min), math.log(cfg.mu_max)))
+        x0, p0, q, p_cap, bounds = initial_state(cfg)
         window = max(int(round(cfg.adapt_window / ts)), 1)
         history = int(math.ceil(cfg.max_delay / ts)) + 2
         self._max_lag = history - 2
-        # the delay state: bounded by the history, and the body's accelerations of its samples for its Jacobian
+        # the delay state: the body's accelerations of its samples for its Jacobian
         self._acc_line = DelayLine(history, 2) if cfg.delay_state else None
-        if cfg.delay_state:
-            bounds += ((_D_GNSS, 0.0, self._max_lag * ts),)
         # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
         # whose likelihoods need the per-sample (white) noise
         self._model = FusionModel(cfg, self._geometry, v.drive_split_front <= 0.0, q, p_cap, bounds,

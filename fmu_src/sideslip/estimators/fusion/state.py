@@ -8,12 +8,13 @@ nothing observes them).
 """
 from __future__ import annotations
 
+import math
 from enum import IntEnum
-from typing import Mapping
+from typing import Mapping, NamedTuple
 
 import numpy as np
 
-__all__ = ["Fs", "state_size", "per_state"]
+__all__ = ["Fs", "state_size", "per_state", "InitialState", "initial_state"]
 
 
 class Fs(IntEnum):
@@ -47,3 +48,45 @@ def per_state(values: Mapping[Fs, float], n: int) -> np.ndarray:
     if missing:
         raise ValueError(f"no value for the state(s) {', '.join(missing)}")
     return np.array([float(values[s]) for s in Fs if s < n])
+
+
+class InitialState(NamedTuple):
+    """The filter's start and its per-state noise (:func:`initial_state`)."""
+
+    x0: np.ndarray              #: initial state
+    p0: np.ndarray              #: initial variances
+    q: np.ndarray               #: process noise per sample (variances)
+    p_cap: np.ndarray           #: variance beyond which a state gets no process noise (its prior's; none for
+    #                              the velocity and the heading)
+    bounds: tuple               #: ``(state, low, high)`` of the bounded states
+
+
+def initial_state(cfg) -> InitialState:
+    """The fusion filter's initial state, variances, process noise, caps and bounds from its configuration
+    (:class:`~sideslip.estimators.fusion.config.SideslipFusionConfig`)."""
+    ts, n = cfg.Ts, state_size(cfg.delay_state, cfg.use_magnetometer)
+    x0 = np.zeros(n)
+    if cfg.delay_state:
+        x0[Fs.D_GNSS] = cfg.gps_latency
+    x0[Fs.LN_MU] = math.log(cfg.mu0)
+    p0 = per_state({Fs.VX: 1.0, Fs.VY: 1.0, Fs.PSI: 10.0, Fs.B_R: cfg.gyro_offset_std0,
+                    Fs.B_AX: cfg.accel_offset_std0, Fs.B_AY: cfg.accel_offset_std0, Fs.D_DELTA: cfg.steer_offset_std0,
+                    Fs.LN_CF: cfg.stiffness_std0, Fs.LN_CR: cfg.stiffness_std0, Fs.LN_MU: cfg.mu_std0,
+                    Fs.E_W: cfg.radius_error_std0, Fs.G_Y: cfg.bank_std0, Fs.D_GNSS: cfg.gps_latency_std,
+                    Fs.B_MAG: cfg.mag_offset_std0}, n) ** 2
+    p_cap = p0.copy()
+    p_cap[[Fs.VX, Fs.VY, Fs.PSI]] = np.inf
+    walk = math.sqrt(ts)
+    q = per_state({Fs.VX: cfg.sigma_accel * ts, Fs.VY: cfg.sigma_accel * ts, Fs.PSI: cfg.sigma_gyro * ts,
+                   Fs.B_R: cfg.gyro_offset_walk * walk, Fs.B_AX: cfg.accel_offset_walk * walk,
+                   Fs.B_AY: cfg.accel_offset_walk * walk, Fs.D_DELTA: 1e-6 * walk,
+                   Fs.LN_CF: cfg.stiffness_walk * walk, Fs.LN_CR: cfg.stiffness_walk * walk,
+                   Fs.LN_MU: cfg.mu_walk * walk, Fs.E_W: 1e-5 * walk, Fs.G_Y: cfg.bank_walk * walk,
+                   Fs.D_GNSS: cfg.delay_walk * walk if cfg.delay_state else 0.0,
+                   Fs.B_MAG: cfg.mag_offset_walk * walk}, n) ** 2
+    bounds = ((int(Fs.LN_CF), math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
+              (int(Fs.LN_CR), math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
+              (int(Fs.LN_MU), math.log(cfg.mu_min), math.log(cfg.mu_max)))
+    if cfg.delay_state:          # bounded by the history kept for the delayed fixes
+        bounds += ((int(Fs.D_GNSS), 0.0, int(math.ceil(cfg.max_delay / ts)) * ts),)
+    return InitialState(x0, p0, q, p_cap, bounds)
