@@ -11,9 +11,10 @@ from sideslip.recording import Recording
 from sideslip.scenarios import BENCHMARK_DEVELOPMENT, BENCHMARK_TEST, BENCHMARK_TRAINING
 from sideslip.studies import accuracy as bm
 from sideslip.studies.leaderboard import summarise, write_report
+from sideslip.units import DEG, wrap_angle
 from sideslip.vehicles import load_vehicle
 
-DEG = math.pi / 180.0
+RAD_PER_DEG = math.pi / 180.0
 
 
 def test_training_and_test_sets_are_disjoint_in_maneuver_speed_vehicle_and_friction():
@@ -31,7 +32,7 @@ def test_training_and_test_sets_are_disjoint_in_maneuver_speed_vehicle_and_frict
 def test_conditions_draw_what_the_protocol_says(seed):
     case = bm.Case("bench_dlc_asm_80kmh", "sensors+mismatch", seed)
     e = bm.sensor_errors(case)
-    assert abs(e["yaw_rate_bias"]) <= 0.6 * DEG and e["yaw_rate_bias_drift"] > 0
+    assert abs(e["yaw_rate_bias"]) <= 0.6 * RAD_PER_DEG and e["yaw_rate_bias_drift"] > 0
     assert abs(e["ax_bias"]) <= 0.25 and abs(e["ay_bias"]) <= 0.25
     assert (e["gps_rate"], e["gps_delay"]) == (10.0, 0.1) and 0.05 <= e["gps_vel_sigma"] <= 0.1
     assert e["steer_bias"] != 0.0
@@ -53,11 +54,11 @@ def _recording(beta, t=None):
 
 
 def test_row_metrics_on_a_constructed_estimate():
-    beta = np.full(1000, 2.0 * DEG)
+    beta = np.full(1000, 2.0 * RAD_PER_DEG)
     valid = np.ones(1000)
     valid[:100] = 0.0                                         # a 1 s start-up
-    est = beta + 0.5 * DEG * np.where(np.arange(1000) % 2, 1.0, -1.0)   # +-0.5 deg
-    std = np.full(1000, 0.5 * DEG)
+    est = beta + 0.5 * RAD_PER_DEG * np.where(np.arange(1000) % 2, 1.0, -1.0)   # +-0.5 deg
+    std = np.full(1000, 0.5 * RAD_PER_DEG)
     m = bm.row_metrics(_recording(beta), est, std, valid)
     assert m["rms"] == pytest.approx(0.5) and m["max"] == pytest.approx(0.5)
     assert m["zero_rms"] == pytest.approx(2.0) and m["rms_valid"] == pytest.approx(0.5)
@@ -66,10 +67,40 @@ def test_row_metrics_on_a_constructed_estimate():
     assert m["coverage95"] == 1.0 and m["off_while_valid"] == 0.0
     # 0.7 s valid and 4 deg off: the validity target's measure; an estimate that is never valid still counts
     off = est.copy()
-    off[500:570] += 4.0 * DEG
+    off[500:570] += 4.0 * RAD_PER_DEG
     assert bm.row_metrics(_recording(beta), off, std, valid)["off_while_valid"] == pytest.approx(0.7)
     never = bm.row_metrics(_recording(beta), np.zeros(1000), std, np.zeros(1000))
     assert never["valid"] == 0.0 and never["rms"] == pytest.approx(2.0) and math.isnan(never["rms_valid"])
+
+
+def test_the_tables_and_the_benchmark_share_one_scorer_apart_from_valid_only():
+    """The paper tables score the valid samples, the benchmark every moving one: the same errors, the same
+    speed threshold, one switch."""
+    from sideslip.studies.metrics import MOVING_SPEED, estimate_metrics, score, scored_samples
+
+    n = 1000
+    beta = np.full(n, 2.0 * RAD_PER_DEG)
+    est = beta + np.where(np.arange(n) < 300, 3.0, 0.5) * RAD_PER_DEG      # 3 deg off for the first 3 s, then 0.5 deg
+    valid = (np.arange(n) >= 300).astype(float)                    # not valid while 3 deg off
+    speed = np.where(np.arange(n) < 50, 0.5 * MOVING_SPEED, 10.0)  # standing for the first 0.5 s
+    every, only_valid = scored_samples(speed), scored_samples(speed, valid, valid_only=True)
+    assert every.sum() == 950 and only_valid.sum() == 700
+    assert score(est - beta, beta, every, DEG)["rms"] == pytest.approx(math.sqrt((250 * 9 + 700 * 0.25) / 950))
+    assert score(est - beta, beta, only_valid, DEG)["rms"] == pytest.approx(0.5)
+    rec = Recording(np.arange(n) * 0.01, {"mu": np.ones(n)}, {"beta": beta, "vx": speed, "vy": np.zeros(n)})
+    row = bm.row_metrics(rec, est, np.full(n, RAD_PER_DEG), valid)
+    results = {"time": rec.time, "plant.vx": speed, "plant.vy": np.zeros(n), "plant.beta": beta,
+               "est.beta_hat": est, "est.valid": valid}
+    table = estimate_metrics(results, "est")
+    assert row["rms"] == score(wrap_angle(est - beta) * DEG, beta * DEG, every)["rms"]
+    assert row["rms_valid"] == pytest.approx(table["beta_hat"]["rms"]) == pytest.approx(0.5)
+    assert row["valid"] == table["valid"] == pytest.approx(700 / 950)
+
+
+def test_one_wrap_for_scalars_and_arrays():
+    angles = np.array([-7.0, -math.pi, -1.0, 0.0, math.pi, 3.5, 12.0])
+    assert list(wrap_angle(angles)) == [wrap_angle(float(a)) for a in angles]
+    assert np.all((wrap_angle(angles) > -math.pi) & (wrap_angle(angles) <= math.pi))
 
 
 def test_sideslip_errors_are_wrapped():

@@ -13,7 +13,7 @@ from sideslip.plant.maneuvers import MANEUVERS, TimeTable, maneuver_spec, parse_
 from sideslip.plant.sensors import SensorConfig
 from sideslip.plant.vehicle import PlantConfig, VehiclePlant
 
-DEG = math.pi / 180
+RAD_PER_DEG = math.pi / 180
 
 
 # ---------------------------------------------------------------- paths
@@ -55,7 +55,7 @@ def test_sine_with_dwell_timing_and_amplitude():
     assert plan.steer_sw(man.completion_of_steer) == pytest.approx(0.0, abs=1e-12)
     assert man.completion_of_steer == pytest.approx(2.0 + 1 / f + 0.5)
     capped = parse_maneuver(maneuver_spec("sine_with_dwell", A=1.0, factor=6.5))
-    assert capped.amplitude == pytest.approx(270 * DEG)                      # FMVSS 126 cap
+    assert capped.amplitude == pytest.approx(270 * RAD_PER_DEG)                      # FMVSS 126 cap
 
 
 def test_every_maneuver_parses_with_defaults_and_builds_a_plan():
@@ -155,9 +155,9 @@ def test_scenario_configs_validate(name):
 def test_scenarios_follow_their_papers():
     yoon = get_scenario("yoon2014_dlc_ice_banked")
     assert yoon.sensors["gps_delay"] == 0.4 and yoon.sensors["gps_rate"] == 5.0
-    assert yoon.sensors["ax_bias"] == 0.5 and yoon.sensors["yaw_rate_bias"] == pytest.approx(2 * DEG)
-    assert float(yoon.road_mu) == 0.3 and float(yoon.road_bank) == pytest.approx(5.71 * DEG)
-    assert float(get_scenario("yoon2014_slc_asphalt_banked").road_bank) == pytest.approx(8.53 * DEG)
+    assert yoon.sensors["ax_bias"] == 0.5 and yoon.sensors["yaw_rate_bias"] == pytest.approx(2 * RAD_PER_DEG)
+    assert float(yoon.road_mu) == 0.3 and float(yoon.road_bank) == pytest.approx(5.71 * RAD_PER_DEG)
+    assert float(get_scenario("yoon2014_slc_asphalt_banked").road_bank) == pytest.approx(8.53 * RAD_PER_DEG)
     park = get_scenario("park2018_case5")
     assert park.vehicle == "park2018_sonata" and float(park.road_mu) == 0.3
     assert park.sensors["gps_rate"] == 20.0 and park.sensors["imu_rate"] == 100.0
@@ -181,7 +181,7 @@ def test_scenario_overrides_and_errors():
 
 def test_fmvss126_reference_angle_gives_0p3g():
     a = fmvss126_reference_angle("pi2011_suv", 0.5)
-    assert 20 * DEG < a < 80 * DEG
+    assert 20 * RAD_PER_DEG < a < 80 * RAD_PER_DEG
     sc = get_scenario("fmvss126_suv_mu05_a5.0")
     assert parse_maneuver(sc.maneuver).A == pytest.approx(a)
 

@@ -16,7 +16,7 @@ from sideslip.recording import replay
 from sideslip.studies import accuracy as B
 from sideslip.vehicles import load_vehicle
 
-DEG = math.pi / 180.0
+RAD_PER_DEG = math.pi / 180.0
 
 
 def _observability_rank(gnss: bool, turning: bool, magnetometer: bool = True) -> tuple[int, np.ndarray]:
@@ -172,7 +172,7 @@ def test_gnss_outage_is_bridged_by_the_tire_model_and_the_heading_recovers_at_it
         assert rms(heading, 20, 24) > 3.0 * rms(heading, 8, 12)
         assert rms(heading, 28, 30) < 0.5 * rms(heading, 20, 24)
     # the sideslip rests on the tire model calibrated before: it stays within its reported std and valid
-    assert rms(err, 12, 24) < 0.1 * DEG and rms(err, 12, 24) < rms(res["beta_hat_std"], 12, 24)
+    assert rms(err, 12, 24) < 0.1 * RAD_PER_DEG and rms(err, 12, 24) < rms(res["beta_hat_std"], 12, 24)
     assert res["valid"][(t > 12) & (t < 24)].all() and est.restarts == 0
 
 
@@ -196,7 +196,7 @@ def test_delayed_fixes_extrapolated_or_rerun_give_the_same_estimate(slalom):
     _, extrapolated = _run(setup, rec)
     _, rerun = _run(setup, rec, fix_extrapolation=False)
     diff = extrapolated["beta_hat"] - rerun["beta_hat"]
-    assert np.sqrt(np.mean(diff ** 2)) < 0.005 * DEG and np.abs(diff).max() < 0.05 * DEG
+    assert np.sqrt(np.mean(diff ** 2)) < 0.005 * RAD_PER_DEG and np.abs(diff).max() < 0.05 * RAD_PER_DEG
     m = B.row_metrics(rec, rerun["beta_hat"], rerun["beta_hat_std"], rerun["valid"])
     assert m["rms"] < 0.1 and m["nees"] < 1.5
 

@@ -18,7 +18,7 @@ from sideslip.studies import accuracy as bm
 from sideslip.studies.metrics import MOVING_SPEED
 from sideslip.vehicles import load_vehicle
 
-DEG = math.pi / 180.0
+RAD_PER_DEG = math.pi / 180.0
 CIRCLE = "bench_train_circle_suv_r40"        # 40 m circle at 12 m/s for 70 s, SUV (training set)
 
 
@@ -46,25 +46,25 @@ def circle():
 def test_nguyen_hardened_holds_a_long_circle_with_a_gyro_offset(circle):
     """0.5 deg/s of gyro offset, GPS at 10 Hz 0.1 s late, 70 s in a circle: as published the estimate runs
     along the unobservable direction; the offset state and the delay line hold it."""
-    rec = bm.record(CIRCLE, {**circle.sensor_params(), "yaw_rate_bias": 0.5 * DEG, "gps_rate": 10.0, "gps_delay": 0.1,
+    rec = bm.record(CIRCLE, {**circle.sensor_params(), "yaw_rate_bias": 0.5 * RAD_PER_DEG, "gps_rate": 10.0, "gps_delay": 0.1,
                              "seed": 3})
     published = _rms_deg(rec, replay(_estimator("Nguyen2012DACMRKF", vehicle="pi2011_suv", profile=0), rec))
     est = _estimator("Nguyen2012DACMRKF", vehicle="pi2011_suv", profile=1)
     res = replay(est, rec)
     assert published > 10.0
     assert _rms_deg(rec, res) < 0.5
-    assert res["bias_yaw_rate_hat"][-1] == pytest.approx(0.5 * DEG, abs=0.1 * DEG)
+    assert res["bias_yaw_rate_hat"][-1] == pytest.approx(0.5 * RAD_PER_DEG, abs=0.1 * RAD_PER_DEG)
 
 
 def test_yoon_hardened_does_not_need_the_sites_inclination(circle):
     """The site's field is inclined 55 deg, the estimator's default says 68: as published the difference
     reads as roll and the roll as lateral acceleration; the hardened filter estimates the inclination."""
-    rec = bm.record(CIRCLE, {**circle.sensor_params(), "mag_inclination": 55 * DEG, "seed": 3}).on_grid(0.01)
+    rec = bm.record(CIRCLE, {**circle.sensor_params(), "mag_inclination": 55 * RAD_PER_DEG, "seed": 3}).on_grid(0.01)
     published = _rms_deg(rec, replay(_estimator("Yoon2014DualKF", vehicle="pi2011_suv", profile=0), rec))
     est = _estimator("Yoon2014DualKF", vehicle="pi2011_suv", profile=1)
     hardened = _rms_deg(rec, replay(est, rec))
     assert published > 2.0 and hardened < 0.4
-    assert est.inclination == pytest.approx(55 * DEG, abs=3 * DEG)
+    assert est.inclination == pytest.approx(55 * RAD_PER_DEG, abs=3 * RAD_PER_DEG)
 
 
 @pytest.mark.slow
@@ -210,9 +210,9 @@ def _kinematic_drive(ts: float = 0.01, duration: float = 12.0, slide_at: float |
     slides by 5 deg in 1 s.  Returns time, true sideslip, measured a_y and yaw rate."""
     t = np.arange(0.0, duration, ts)
     vx, w = 15.0, 2 * np.pi * 0.3
-    beta = 1.0 * DEG * np.sin(w * t)
+    beta = 1.0 * RAD_PER_DEG * np.sin(w * t)
     if slide_at is not None:
-        beta = beta - 5.0 * DEG * np.clip(t - slide_at, 0.0, 1.0)
+        beta = beta - 5.0 * RAD_PER_DEG * np.clip(t - slide_at, 0.0, 1.0)
     r = 0.2 * np.sin(w * t + 0.3)
     ay = vx * (np.gradient(beta, ts) + r)              # a_y = v_x (beta' + r) at constant speed
     return t, beta, ay + 0.25 + 0.5, r + 0.01
@@ -225,11 +225,11 @@ def test_kinematic_check_passes_offsets_and_a_bank_and_sees_a_slide_the_estimate
     assert max(follow.update(beta[k], 15.0, r[k], ay[k]) for k in range(len(t))) == 0.0
     t, beta, ay, r = _kinematic_drive(ts, slide_at=6.0)
     stuck = KinematicCheck(ts)                         # the linear model's: the slide is not in it
-    sigma = np.array([stuck.update(1.0 * DEG * math.sin(2 * math.pi * 0.3 * tk), 15.0, r[k], ay[k])
+    sigma = np.array([stuck.update(1.0 * RAD_PER_DEG * math.sin(2 * math.pi * 0.3 * tk), 15.0, r[k], ay[k])
                       for k, tk in enumerate(t)])
     assert sigma[t < 6.0].max() == 0.0
     # above valid_std_max (1.5 deg) within 0.2 s of the estimate being 3 deg off (0.6 s into the slide)
-    assert t[np.argmax(sigma > 1.5 * DEG)] <= 6.8
+    assert t[np.argmax(sigma > 1.5 * RAD_PER_DEG)] <= 6.8
 
 
 @pytest.mark.slow
