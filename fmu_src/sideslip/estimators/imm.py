@@ -39,13 +39,14 @@ def mixture(weights, means, covariances) -> tuple[np.ndarray, np.ndarray]:
     means, covariances : sequence of ndarray
         The components' means (n,) and covariances (n, n).
     """
-    x = weights[0] * means[0]
-    for w, m in zip(weights[1:], means[1:]):
-        x = x + w * m
-    P = np.zeros_like(covariances[0])
-    for w, m, C in zip(weights, means, covariances):
-        d = m - x
-        P += w * (C + np.outer(d, d))
+    w = weights.tolist() if isinstance(weights, np.ndarray) else list(weights)    # floats: no numpy scalars
+    x = w[0] * means[0]
+    for k in range(1, len(w)):
+        x = x + w[k] * means[k]
+    P = np.zeros(covariances[0].shape)
+    for k in range(len(w)):
+        d = means[k] - x
+        P += w[k] * (covariances[k] + d[:, None] * d[None, :])
     return x, P
 
 

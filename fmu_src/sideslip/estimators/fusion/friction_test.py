@@ -16,7 +16,7 @@ import numpy as np
 from ..kalman import KalmanFilter
 from .models import Geometry, SampleInputs
 from .state import Fs
-from .tire_model import axle_slip
+from .tire_model import axle_slip_values
 
 __all__ = ["FRICTION_HYPOTHESES", "TEST_MODEL_ERROR", "friction_test"]
 
@@ -75,7 +75,7 @@ def friction_test(mode, kf: KalmanFilter, x0: np.ndarray, axles: tuple, inp: Sam
                 axles, weights, (inp.fy_f, inp.fy_r), (inp.fz_f, inp.fz_r), (inp.fx_f, inp.fx_r), (g.c_f, g.c_r),
                 (g.c_f_lo, g.c_r_lo), (ln_cf, ln_cr)):
             h = axle.residual
-            h_c = h + vx * (axle_slip(force, f_z, f_x, c_hi, c_lo, g.mu_lo, ln_s, mu_c, u_max).alpha - axle.slip)
+            h_c = h + vx * (axle_slip_values(force, f_z, f_x, c_hi, c_lo, g.mu_lo, ln_s, mu_c, u_max)[0] - axle.slip)
             llr += w * (h * h - h_c * h_c)
         if llr > best:
             best, best_ln = llr, ln_c

@@ -31,7 +31,7 @@ import numpy as np
 from ...constants import GRAVITY
 from ...vehicles import VehicleParams
 from .state import Fs
-from .tire_model import axle_slip
+from .tire_model import axle_slip_values
 
 __all__ = ["Geometry", "SampleInputs", "Prediction", "Observation", "ScalarMeasurement", "VectorMeasurement",
            "AxlePseudo", "kinematic_step", "gnss_model", "track_acceleration", "gnss_delayed_model",
@@ -284,10 +284,10 @@ def axle_pseudo(x: np.ndarray, inp: SampleInputs, geometry: Geometry, u_max: flo
     mu = math.exp(ln_mu)
     r = inp.r_m - b_r
     n = len(x)
-    a_f, da_cf, da_mf, u_f, cf_s, fmf, kf, gf = axle_slip(inp.fy_f, inp.fz_f, inp.fx_f, c_f, c_f_lo, mu_lo, ln_cf,
-                                                          mu, u_max)
-    a_r, da_cr, da_mr, u_r, cr_s, fmr, kr, gr = axle_slip(inp.fy_r, inp.fz_r, inp.fx_r, c_r, c_r_lo, mu_lo, ln_cr,
-                                                          mu, u_max)
+    a_f, da_cf, da_mf, u_f, cf_s, fmf, kf, gf = axle_slip_values(inp.fy_f, inp.fz_f, inp.fx_f, c_f, c_f_lo, mu_lo,
+                                                                 ln_cf, mu, u_max)
+    a_r, da_cr, da_mr, u_r, cr_s, fmr, kr, gr = axle_slip_values(inp.fy_r, inp.fz_r, inp.fx_r, c_r, c_r_lo, mu_lo,
+                                                                 ln_cr, mu, u_max)
     steer = inp.delta - d_delta
     h_f = vy + l_f * r - vx * (steer - a_f)
     row_f = np.zeros(n)

@@ -13,7 +13,8 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-__all__ = ["BrushSlip", "AxleSlip", "CAPACITY_MIN", "fiala_slip", "axle_stiffness", "lateral_capacity", "axle_slip"]
+__all__ = ["BrushSlip", "AxleSlip", "CAPACITY_MIN", "fiala_slip", "axle_stiffness", "lateral_capacity", "axle_slip",
+           "axle_slip_values"]
 
 CAPACITY_MIN = 0.3
 """Smallest share of an axle's friction :func:`lateral_capacity` leaves for its lateral force."""
@@ -60,6 +61,11 @@ def fiala_slip(force: float, stiffness: float, f_max: float, u_max: float) -> Br
     u_max : float
         Utilisation at which the slip angle is clipped.
     """
+    return BrushSlip(*_fiala(force, stiffness, f_max, u_max))
+
+
+def _fiala(force: float, stiffness: float, f_max: float, u_max: float) -> tuple:
+    """:func:`fiala_slip` as a plain tuple (the filter's hot path)."""
     u = abs(force) / f_max
     uc = u if u < u_max else u_max
     w = (1.0 - uc) ** (1.0 / 3.0)
@@ -70,7 +76,7 @@ def fiala_slip(force: float, stiffness: float, f_max: float, u_max: float) -> Br
     d_fmax = a * ((1.0 - w) - uc / (3.0 * w * w))                    # <= 0: more friction, less slip
     if force < 0.0:
         d_fmax = -d_fmax
-    return BrushSlip(alpha, -alpha, d_fmax, u)
+    return alpha, -alpha, d_fmax, u
 
 
 def axle_stiffness(c_hi: float, c_lo: float, mu_lo: float, mu: float) -> tuple[float, float]:
@@ -106,8 +112,15 @@ def axle_slip(force: float, f_z: float, f_x: float, c_hi: float, c_lo: float, mu
     [N], at friction ``mu`` and the log stiffness scale ``ln_scale`` (:func:`axle_stiffness`,
     :func:`lateral_capacity`, :func:`fiala_slip`); ``c_hi``, ``c_lo`` are the vehicle file's stiffness at
     friction 1 and ``mu_lo`` [N/rad]."""
+    return AxleSlip(*axle_slip_values(force, f_z, f_x, c_hi, c_lo, mu_lo, ln_scale, mu, u_max))
+
+
+def axle_slip_values(force: float, f_z: float, f_x: float, c_hi: float, c_lo: float, mu_lo: float, ln_scale: float,
+                     mu: float, u_max: float) -> tuple:
+    """:func:`axle_slip` as a plain tuple in :class:`AxleSlip`'s order (the filter's hot path: a named tuple costs
+    a Python call each)."""
     c, k = axle_stiffness(c_hi, c_lo, mu_lo, mu)
     c *= math.exp(ln_scale)
     f_max, g = lateral_capacity(mu * f_z, f_x)
-    alpha, d_c, d_m, u = fiala_slip(force, c, f_max, u_max)
-    return AxleSlip(alpha, d_c, d_m, u, c, f_max, k, g)
+    alpha, d_c, d_m, u = _fiala(force, c, f_max, u_max)
+    return alpha, d_c, d_m, u, c, f_max, k, g
