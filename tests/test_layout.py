@@ -119,6 +119,19 @@ def test_the_top_level_is_the_projects_layout():
                    "docs", "mkdocs.yml", ".ci", ".gitignore"}
 
 
+def test_no_estimator_function_is_longer_than_a_reader_can_hold():
+    """The estimators' functions stay under 80 lines; a paper's sample is its stages and its hardened profile's
+    departures are _hardened_* hooks (sideslip.estimators.profiles)."""
+    import ast
+
+    long = []
+    for path in (PACKAGE_DIR / "estimators").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and node.end_lineno - node.lineno + 1 > 80:
+                long.append(f"{path.relative_to(PACKAGE_DIR)}:{node.name}")
+    assert long == []
+
+
 # ---------------------------------------------------------------- the FMU catalogue
 def test_every_catalogue_entry_has_its_wrapper_and_no_wrapper_is_outside_the_catalogue():
     """Estimator and controller wrappers in fmu_src/, the plant side's in plant_fmus/."""
