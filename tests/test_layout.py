@@ -21,10 +21,10 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = {"core": 0, "fmi": 1, "cosim": 2, "studies": 3, "cli": 4}
 """A module may import modules of its own layer and of the layers before it."""
 
-THIRD_PARTY = {"core": {"numpy", "scipy", "control"},
-               "fmi": {"numpy", "scipy", "control", "pythonfmu", "fmpy"},
-               "cosim": {"numpy", "scipy", "control", "pythonfmu", "fmpy", "libcosimpy", "OMSimulator"},
-               "studies": {"numpy", "scipy", "control", "fmpy", "matplotlib", "distributed"},
+THIRD_PARTY = {"core": {"numpy", "scipy", "control", "vehiclemodels"},
+               "fmi": {"numpy", "scipy", "control", "vehiclemodels", "pythonfmu", "fmpy"},
+               "cosim": {"numpy", "scipy", "control", "vehiclemodels", "pythonfmu", "fmpy", "libcosimpy", "OMSimulator"},
+               "studies": {"numpy", "scipy", "control", "vehiclemodels", "fmpy", "matplotlib", "distributed"},
                "cli": {"numpy"}}
 """Third-party packages each layer may import (the core never imports pythonfmu or fmpy)."""
 

@@ -144,6 +144,11 @@ _ENTRIES = (
             "8-DOF vehicle plant (longitudinal, lateral, yaw, roll, four wheel spins) with Dugoff combined-slip "
             "tires, quasi-static load transfer, bank gravity, drive/brake split and in-wheel motors realising "
             "Mz_dyc; RK4 with adaptive internal sub-steps"),
+    FmuSpec("CommonRoadPlant", "sideslip_commonroad_fmu", "sideslip.plant.commonroad:CommonRoadPlant",
+            "sideslip.plant.commonroad:CommonRoadConfig", "plant",
+            "Third-party vehicle plant: the CommonRoad multi-body model (vehiclemodels.vehicle_dynamics_mb, 29 "
+            "states, PAC2002 tires; published sets Ford Escort, BMW 320i, VW Vanagon) under the plant contract, "
+            "with a steering actuator, the contract's wheel torques and yaw moment, road friction and bank; RK4"),
     FmuSpec("VehicleSensors", "sideslip_sensors_fmu", "sideslip.plant.sensors:SensorSuite",
             "sideslip.plant.sensors:SensorConfig", "sensors",
             "Vehicle sensors: IMU, wheel speeds with rolling-radius error, steering-angle sensor with fault "

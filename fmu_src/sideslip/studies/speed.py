@@ -62,8 +62,18 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
                 runs.setdefault(fmu, []).append(statistics.median(blocks))
                 p90.setdefault(fmu, []).append(blocks[int(0.9 * (len(blocks) - 1))])
 
-    comps, _ = scenario_components(sc)
+    comps, conns = scenario_components(sc)
     profile([], None, [(c.name, c.fmu) for c in comps])
+    # the third-party plant in the same loop, in place of the project's (vehicle set 2, the BMW 320i)
+    plant = next(c for c in comps if c.name == "plant")
+    third = [dataclasses.replace(c, fmu="CommonRoadPlant",
+                                 parameters={"vehicle_set": 2, "vx0": float(plant.parameters.get("vx0", 0.0))})
+             if c.name == "plant" else c for c in comps]
+    for _ in range(repeats):
+        with CoSimulation(third, conns, step=step, fmu_dir=fmu_dir) as sim:
+            blocks = sorted(sim.run(duration, profile=True).meta["profile"]["plant"])
+        runs.setdefault("CommonRoadPlant", []).append(statistics.median(blocks))
+        p90.setdefault("CommonRoadPlant", []).append(blocks[int(0.9 * (len(blocks) - 1))])
     for name in fmu_names("estimator"):
         profile([name], None, [(name, name)])
     for name in fmu_names("controller"):
