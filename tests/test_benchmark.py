@@ -22,8 +22,9 @@ def test_training_and_test_sets_are_disjoint_in_maneuver_speed_vehicle_and_frict
     test = {(s.maneuver, s.vehicle, s.road_mu) for s in BENCHMARK_TEST}
     assert not train & test
     assert not {s.name for s in BENCHMARK_TRAINING + BENCHMARK_DEVELOPMENT} & {s.name for s in BENCHMARK_TEST}
-    assert len(bm.cases(seeds=2, development=True)) == len(BENCHMARK_DEVELOPMENT) * len(bm.CONDITIONS) * 2
-    assert len(bm.cases(seeds=5)) == len(BENCHMARK_TEST) * len(bm.CONDITIONS) * 5
+    simulated = len(bm.CONDITIONS) - 1                  # every condition but the real drive's, plus its slice
+    assert len(bm.cases(seeds=2, development=True)) == (len(BENCHMARK_DEVELOPMENT) * simulated + 1) * 2
+    assert len(bm.cases(seeds=5)) == (len(BENCHMARK_TEST) * simulated + 1) * 5
     with pytest.raises(ValueError, match="unknown condition"):
         bm.cases(conditions=("rain",))
 
@@ -191,3 +192,47 @@ def test_the_command_line_benchmark_runs_the_rows_and_sensors_it_is_given(tmp_pa
     expected = bm.run_case(given, bm.with_params((row,), {"sigma_accel": 0.3}))["rows"][row.label]["rms"]
     default = bm.run_case(bm.Case(given.scenario, given.condition), (row,))["rows"][row.label]["rms"]
     assert got == pytest.approx(expected, rel=1e-12) and abs(got - default) > 0.01
+
+
+# ---------------------------------------------------------------- the real drive
+def test_the_real_drives_slices_are_disjoint_and_each_in_one_set():
+    from sideslip.studies.real_drive import REAL, SLICES
+
+    spans = sorted(SLICES.values())
+    assert all(a[1] <= b[0] for a, b in zip(spans, spans[1:]))
+    for flag, name in (({"training": True}, "stanford2014_train"), ({"development": True}, "stanford2014_dev"),
+                       ({}, "stanford2014_test")):
+        real = [c for c in bm.cases(seeds=2, **flag) if c.condition == REAL]
+        assert {c.scenario for c in real} == {name} and len(real) == 2
+        assert not any(c.scenario in SLICES for c in bm.cases(seeds=1, **flag) if c.condition != REAL)
+
+
+def test_a_real_drive_keeps_its_logged_sensors_and_derives_the_missing_ones():
+    """The logged IMU and steering as they are; the wheel speeds roll freely at the INS velocity; the GNSS speed is
+    the INS speed with the receiver's noise and delay."""
+    from sideslip.studies.real_drive import _log, real_drive
+
+    case = bm.Case("stanford2014_train", "real", 1)
+    s = bm.setup(case)
+    rec = bm.simulate(case)
+    log = _log()
+    first = log["time"] >= 280.0 - 1e-9
+    assert rec.duration == pytest.approx(140.0, abs=0.02) and rec.time[1] == pytest.approx(0.01)
+    assert np.array_equal(rec.signals["ay_m"], log["ay"][first][:len(rec.time)])
+    assert np.array_equal(rec.reference["beta"], log["beta"][first][:len(rec.time)])
+    rear = 0.5 * (rec.signals["omega_rl_m"] + rec.signals["omega_rr_m"]) * s.vehicle.R_w
+    assert np.median(np.abs(rear / rec.reference["vx"] - 1.0)) < 0.015                 # the radius error drawn
+    fresh = rec.signals["gps_fresh"] > 0.5
+    assert 9.0 < fresh.sum() / rec.duration < 11.0                                    # 10 Hz
+    speed = np.hypot(rec.reference["vx"], rec.reference["vy"])
+    lag = int(round(s.sensors["gps_delay"] / 0.01))
+    assert np.median(np.abs(rec.signals["gps_speed"][fresh][5:] - np.roll(speed, lag)[fresh][5:])) < 0.2
+    assert real_drive("stanford2014_train", s.sensors).signals["gps_ve"].tolist() == rec.signals["gps_ve"].tolist()
+
+
+@pytest.mark.slow
+def test_the_fusion_estimator_beats_predict_zero_on_the_real_drives_training_slice():
+    rows = tuple(r for r in bm.ROWS if r.estimator is None or r.label == "SideslipFusion/EKF")
+    res = bm.run_case(bm.Case("stanford2014_train", "real", 0), rows)
+    zero, fusion = res["rows"]["predict-zero"], res["rows"]["SideslipFusion/EKF"]
+    assert fusion["rms"] < 0.5 * zero["rms"] and fusion["restarts"] == 0

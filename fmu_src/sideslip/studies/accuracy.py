@@ -60,12 +60,13 @@ from ..units import DEG, wrap_angle
 from ..vehicles import VehicleParams, load_vehicle
 from .jobs import map_ordered
 from .metrics import score, scored_samples, valid_share
+from .real_drive import REAL, SLICES, VEHICLE, is_real_drive, real_drive
 
 __all__ = ["CONDITIONS", "RECORDED", "OFF_DEG", "Row", "ROWS", "PAPER_METHODS", "Case", "cases", "log_case",
            "sensor_errors", "vehicle_mismatch", "setup", "record", "simulate", "make_estimator", "recorded_speed",
            "row_metrics", "run_case", "select_rows", "with_params", "sensor_overrides", "run_benchmark"]
 
-CONDITIONS = ("nominal", "sensors", "mismatch", "sensors+mismatch")
+CONDITIONS = ("nominal", "sensors", "mismatch", "sensors+mismatch", REAL)
 RECORDED = "recorded"
 """The condition of a case that is a recorded drive (:func:`log_case`)."""
 OFF_DEG = 3.0
@@ -124,12 +125,15 @@ def cases(scenarios=None, conditions=CONDITIONS, seeds=5, training: bool = False
     """Every scenario x condition x seed (the test set by default, or the training or the development set), with
     ``sensors`` (:func:`sensor_overrides`) replacing those sensor values of every case."""
     chosen = BENCHMARK_TRAINING if training else BENCHMARK_DEVELOPMENT if development else BENCHMARK_TEST
-    names = scenarios or [s.name for s in chosen]
+    real = "stanford2014_train" if training else "stanford2014_dev" if development else "stanford2014_test"
+    names = scenarios or [s.name for s in chosen] + [real]
     for c in conditions:
         if c not in CONDITIONS:
             raise ValueError(f"unknown condition {c!r}; conditions: {', '.join(CONDITIONS)}")
     fixed = tuple(sensor_overrides(sensors).items())
-    return [Case(n, c, s, sensors=fixed) for n in names for c in conditions for s in range(seeds)]
+    # a real drive has one condition, its own sensors; a simulated scenario every other
+    return [Case(n, c, s, sensors=fixed) for n in names for c in conditions
+            if (c == REAL) == is_real_drive(n) for s in range(seeds)]
 
 
 def sensor_overrides(values: dict | None) -> dict:
@@ -195,6 +199,10 @@ def setup(case: Case, overrides: dict | None = None) -> CaseSetup:
     (of a recorded drive: the vehicle named by the case, or None for each estimator's own default)."""
     if case.condition == RECORDED:
         return CaseSetup(None, {}, {}, None, load_vehicle(case.vehicle) if case.vehicle else None, False)
+    if case.condition == REAL:                 # the derived sensors of a real drive (sideslip.studies.real_drive)
+        vehicle = load_vehicle(VEHICLE)
+        sensors = {"seed": 1000 + case.seed, **sensor_errors(case), **dict(case.sensors)}
+        return CaseSetup(None, {}, sensors, vehicle, vehicle, False)
     sc = get_scenario(case.scenario, **(overrides or {}))
     sensors = {**sc.sensor_params(), "seed": 1000 + case.seed}
     plant = dict(sc.plant_params())
@@ -242,8 +250,11 @@ def record(scenario: str, sensors: dict, tire_model: int = 0, step: float = 1e-3
 
 
 def simulate(case: Case, step: float = 1e-3) -> Recording:
-    """The recorded drive of a case (:func:`record` with its sensors and tires)."""
+    """The recorded drive of a case (:func:`record` with its sensors and tires; a real drive's slice with its derived
+    sensors)."""
     s = setup(case)
+    if case.condition == REAL:
+        return real_drive(case.scenario, s.sensors)
     return record(case.scenario, s.sensors, s.plant.get("tire_model", 0), step, case.name)
 
 
