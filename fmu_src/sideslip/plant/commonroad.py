@@ -331,7 +331,7 @@ class CommonRoadPlant(Model):
         fy_r = t.fy[2] + t.fy[3]
         fz = t.fz
         return (vx, vy, r, math.atan2(vy, vx), wrap_angle(x[_PSI]), bank + phi, -x[7], ax_spec, ay_body,
-                x[0], x[1], x[24], x[23], x[26], x[25], fy_f, fy_r, fz[1], fz[0], fz[3], fz[2],
+                x[0], x[1], *(x[i] for i in _ISO_WHEELS), fy_f, fy_r, fz[1], fz[0], fz[3], fz[2],
                 0.5 * (t.alpha[0] + t.alpha[1]), 0.5 * (t.alpha[2] + t.alpha[3]), self.motor_arm * self.dT_motor)
 
 

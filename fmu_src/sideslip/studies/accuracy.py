@@ -60,7 +60,7 @@ from ..units import DEG, wrap_angle
 from ..vehicles import VehicleParams, load_vehicle
 from .jobs import map_ordered
 from .metrics import score, scored_samples, valid_share
-from .real_drive import REAL, SLICES, VEHICLE, is_real_drive, real_drive
+from .real_drive import REAL, VEHICLE, is_real_drive, real_drive
 
 __all__ = ["CONDITIONS", "RECORDED", "OFF_DEG", "Row", "ROWS", "PAPER_METHODS", "Case", "cases", "log_case",
            "sensor_errors", "vehicle_mismatch", "setup", "record", "simulate", "make_estimator", "recorded_speed",
