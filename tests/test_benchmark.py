@@ -23,10 +23,55 @@ def test_training_and_test_sets_are_disjoint_in_maneuver_speed_vehicle_and_frict
     assert not train & test
     assert not {s.name for s in BENCHMARK_TRAINING + BENCHMARK_DEVELOPMENT} & {s.name for s in BENCHMARK_TEST}
     simulated = len(bm.CONDITIONS) - 1                  # every condition but the real drive's, plus its slice
-    assert len(bm.cases(seeds=2, development=True)) == (len(BENCHMARK_DEVELOPMENT) * simulated + 1) * 2
-    assert len(bm.cases(seeds=5)) == (len(BENCHMARK_TEST) * simulated + 1) * 5
+    # the own plant, plus one CommonRoad car under sensors+mismatch only
+    assert len(bm.cases(seeds=2, development=True)) == (len(BENCHMARK_DEVELOPMENT) * (simulated + 1) + 1) * 2
+    assert len(bm.cases(seeds=5)) == (len(BENCHMARK_TEST) * (simulated + 1) + 1) * 5
+    assert len(bm.cases(seeds=5, plants=["own"])) == (len(BENCHMARK_TEST) * simulated + 1) * 5
     with pytest.raises(ValueError, match="unknown condition"):
         bm.cases(conditions=("rain",))
+    with pytest.raises(ValueError, match="unknown plant"):
+        bm.cases(plants=["carla"])
+
+
+def test_the_three_sets_share_no_plant_vehicle_scenario_or_slice():
+    """Training, development and test are disjoint in their (plant, estimators' vehicle, scenario or slice); the
+    third CommonRoad car and the real drive's test slice are in the test set only."""
+    def keys(**which):
+        out = set()
+        for c in bm.cases(seeds=1, **which):
+            s = bm.setup(c)
+            out.add((c.plant, s.estimator_vehicle.name, c.scenario))
+        return out
+    sets = {"training": keys(training=True), "development": keys(development=True), "test": keys()}
+    for a in sets:
+        for b in sets:
+            if a < b:
+                assert not sets[a] & sets[b]
+                assert not {k[2] for k in sets[a]} & {k[2] for k in sets[b]}
+                cars = lambda ks: {k[0] for k in ks if k[0] != "own"}      # noqa: E731
+                assert not cars(sets[a]) & cars(sets[b])
+    only_test = {k for k in sets["test"] if k[0] == "commonroad3" or k[2] == "stanford2014_test"}
+    assert only_test and {k[0] for k in sets["test"]} == {"own", "commonroad3"}
+    assert "stanford2014_test" in {k[2] for k in sets["test"]}
+
+
+def test_the_road_draws_crossfall_or_a_crown_from_the_seed():
+    drawn = []
+    for seed in range(12):
+        case = bm.Case("bench_banked_lc_asm", "sensors", seed)
+        s = bm.setup(case)
+        road = bm.road_draw(case, s.scenario)
+        assert road == bm.road_draw(case, s.scenario)                        # the seed draws it
+        if "road_crown" in road:
+            assert 0.005 <= math.tan(road["road_crown"]) <= 0.03 and s.driver["road_crown"] == road["road_crown"]
+        else:                                                              # on top of the scenario's 6 deg bank
+            assert abs(math.tan(float(road["road_bank"]) - 6 * RAD_PER_DEG)) <= 0.03 + 1e-12
+        drawn.append("road_crown" in road)
+    assert any(drawn) and not all(drawn)
+    circle = bm.setup(bm.Case("bench_circle_asm_r80_left", "sensors", 0)).scenario
+    assert not any("road_crown" in bm.road_draw(bm.Case(circle.name, "sensors", k), circle)
+                   for k in range(8))                                      # a circle leaves a crown's line
+    assert "road_crown" not in bm.setup(bm.Case("bench_banked_lc_asm", "nominal", 0)).driver
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -126,11 +171,12 @@ def test_a_tiny_grid_end_to_end(tmp_path):
         for label, m in r["rows"].items():
             assert math.isfinite(m["rms"]) and m["restarts"] == 0, label
         assert ("traces" in r) == (r["seed"] == 0)
-    # the sensors and the tires differ between the conditions, the truth not between seeds of one
+    # the sensors and the tires differ between the conditions, the truth not between seeds of a clean road
     nominal = [r for r in results if r["condition"] == "nominal"]
     assert nominal[0]["rows"]["predict-zero"]["rms"] == nominal[1]["rows"]["predict-zero"]["rms"]
     summary = write_report(results, tmp_path, meta={"seeds": 2})
-    assert set(summary) == {"nominal", "sensors+mismatch"}
+    assert set(summary) == {"nominal", "sensors+mismatch", "sensors+mismatch on commonroad3"}
+    assert [r["plant"] for r in results] == ["own"] * 4 + ["commonroad3"] * 2
     row = summary["sensors+mismatch"]["rows"]["Yoon2014DualKF/hardened"]
     per = row["per_scenario"]["bench_jturn_coms_ice"]
     assert per["seeds"] == 2 and per["rms_min"] <= per["rms"] <= per["rms_max"]
@@ -138,9 +184,11 @@ def test_a_tiny_grid_end_to_end(tmp_path):
     text = (tmp_path / "leaderboard.md").read_text()
     assert "## sensors+mismatch" in text and "| Yoon2014DualKF/hardened |" in text
     data = json.loads((tmp_path / "benchmark.json").read_text())
-    assert len(data["cases"]) == 4 and data["meta"] == {"seeds": 2}
-    assert (tmp_path / "heatmap.png").stat().st_size > 10_000
-    assert (tmp_path / "errors_jturn_coms_ice.png").stat().st_size > 10_000
+    assert len(data["cases"]) == 6 and data["meta"] == {"seeds": 2}
+    assert "## sensors+mismatch on commonroad3" in text
+    for name in ("heatmap.png", "heatmap_commonroad3.png", "errors_jturn_coms_ice.png",
+                 "errors_jturn_coms_ice_commonroad3.png"):
+        assert (tmp_path / name).stat().st_size > 10_000, name
     assert set(data["summary"]) == set(summarise(results))
 
 

@@ -86,7 +86,8 @@ def test_values_not_in_the_paper_are_marked_assumed(name):
 
 
 def test_every_bundled_vehicle_loads_and_validates():
-    assert set(vehicle_names()) == {"park2018_sonata", "pi2011_suv", "kim2016_asm", "nguyen2012_coms", "stanford_track_car"}
+    assert set(vehicle_names()) == {"park2018_sonata", "pi2011_suv", "kim2016_asm", "nguyen2012_coms", "stanford_track_car",
+                                  "commonroad_ford_escort", "commonroad_bmw_320i", "commonroad_vw_vanagon"}
     for n in vehicle_names():
         v = load_vehicle(n)
         assert v.name == n

@@ -42,7 +42,7 @@ import numpy as np
 from .signals import SENSOR_OUTPUTS, SIGNALS
 from .units import si_factor
 
-__all__ = ["Recording", "LogError", "read_log", "replay", "OPTIONAL_INPUTS", "LOGGED_INPUTS", "REFERENCES",
+__all__ = ["Recording", "LogError", "read_log", "write_log", "replay", "OPTIONAL_INPUTS", "LOGGED_INPUTS", "REFERENCES",
            "PLAUSIBLE"]
 
 OPTIONAL_INPUTS = {"Mz_cmd": 0.0, "mu": 1.0, "mag_x": 0.0, "mag_y": 0.0, "mag_z": 0.0}
@@ -304,6 +304,19 @@ def read_log(csv_path: str | Path, map_path: str | Path | None = None, max_gap: 
         if "gps_course" not in signals:
             signals["gps_course"] = np.arctan2(vn, ve)
     return Recording(time, signals, reference, str(path))
+
+
+def write_log(recording: Recording, path: str | Path, every: int = 1) -> Path:
+    """Write a recording as a CSV log :func:`read_log` reads without a map: a ``time`` column, then its signals
+    and references by contract name in SI units, every ``every``-th sample."""
+    names = list(recording.signals) + [n for n in recording.reference if n not in recording.signals]
+    columns = [recording.time] + [recording.signals[n] if n in recording.signals else recording.reference[n]
+                                  for n in names]
+    data = np.column_stack([np.asarray(c, dtype=float)[::every] for c in columns])
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savetxt(path, data, delimiter=",", header=",".join(["time"] + names), comments="", fmt="%.9g")
+    return path
 
 
 # ---------------------------------------------------------------------------------------- replay

@@ -1,4 +1,4 @@
-"""Command line: ``python -m sideslip {list,run,demo,bench,benchmark,replay,paper,control,export-ssp,build,docs}``.
+"""Command line: ``python -m sideslip {list,run,demo,bench,benchmark,replay,identify,calibrate,paper,control,export-ssp,build,docs}``.
 
 ``run`` writes ``DIR/results.csv``, ``DIR/metrics.json`` and ``DIR/sideslip.png`` and prints
 a metrics table; ``demo`` is ``run`` on a default scenario with every estimator of the FMU
@@ -6,7 +6,9 @@ catalogue; ``bench`` prints microseconds per communication step per FMU and the 
 real-time factor; ``paper`` reproduces a paper's result tables with the FMUs (dispatching to
 :data:`sideslip.studies.papers.PAPERS`); ``control`` evaluates the yaw-moment controller;
 ``benchmark`` scores every estimator on the benchmark's cases (:mod:`sideslip.studies.accuracy`);
-``replay`` runs estimator FMUs on a recorded drive (:mod:`sideslip.studies.logs`);
+``replay`` runs estimator FMUs on a recorded drive (:mod:`sideslip.studies.logs`); ``identify`` writes a
+vehicle file from a calibration drive and ``calibrate`` drives one on a simulated plant
+(:mod:`sideslip.studies.identify`);
 ``export-ssp`` writes a scenario's closed loop as an SSP 1.0 package; ``run --master libcosim`` or
 ``--master omsimulator`` runs the loop in another master; ``docs`` writes the per-FMU reference pages.  FMUs are built on first
 use (``build/fmus``).
@@ -16,11 +18,11 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import accuracy, control, papers, replay, runs, speed, tools
+from . import accuracy, control, papers, replay, runs, speed, tools, vehicle
 
 __all__ = ["main"]
 
-COMMANDS = (tools, runs, speed, papers, control, accuracy, replay)
+COMMANDS = (tools, runs, speed, papers, control, accuracy, replay, vehicle)
 """The modules that register the subcommands (each a ``register(subparsers)``), in the order of ``--help``."""
 
 

@@ -20,16 +20,17 @@ def _cmd_benchmark(args) -> int:
     sensors, params = kv(args.sensor, "--sensor"), kv(args.param, "--param")
     cases = [] if args.log and not args.scenario else bm.cases(args.scenario or None, conditions, seeds,
                                                                 training=args.training, development=args.development,
-                                                                sensors=sensors)
+                                                                sensors=sensors, plants=args.plant)
     cases += [bm.log_case(path, args.map, args.vehicle) for path in args.log or ()]
     print(f"benchmark: {len(cases)} cases ({len({c.scenario for c in cases})} scenarios x {len(conditions)} "
-          f"conditions x {seeds} seeds) -> {args.out}", file=sys.stderr)
+          f"conditions x {seeds} seeds on {', '.join(sorted({c.plant for c in cases}))}) -> {args.out}",
+          file=sys.stderr)
     t0 = time.perf_counter()
     rows = bm.with_params(bm.select_rows(args.estimator), params)
     results = bm.run_benchmark(cases, rows, args.workers, args.scheduler, progress=sys.stderr.isatty())
     wall = time.perf_counter() - t0
     which = "training" if args.training else "development" if args.development else "test"
-    meta = {"seeds": seeds, "conditions": list(conditions), "training": args.training, "set": which, "wall_s": wall,
+    meta = {"seeds": seeds, "conditions": list(conditions), "plants": sorted({c.plant for c in cases}), "training": args.training, "set": which, "wall_s": wall,
             "cases": len(cases), "quick": args.quick, "sensors": bm.sensor_overrides(sensors),
             "params": {k: v for row in rows for k, v in row.params if k in params}}
     write_report(results, args.out, title=f"Sideslip estimator benchmark ({which} set)", meta=meta)
@@ -48,6 +49,9 @@ def register(sub) -> None:
     which.add_argument("--training", action="store_true", help="the training set instead of the test set")
     which.add_argument("--development", action="store_true", help="the development set (failure cases the training "
                        "set does not show) instead of the test set")
+    bench_e.add_argument("--plant", action="append", choices=("own", "commonroad"), help="only this plant: the "
+                         "project's, or the set's CommonRoad car (training 1, development 2, test 3; condition "
+                         "sensors+mismatch only) (repeatable; default both)")
     bench_e.add_argument("--estimator", action="append", help="only this row, by label or estimator name, e.g. "
                          "Yoon2014DualKF/hardened or Yoon2014DualKF (repeatable; predict-zero always runs)")
     bench_e.add_argument("--param", action="append", metavar="NAME=VALUE", help="estimator parameter on every "

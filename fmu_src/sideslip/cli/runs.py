@@ -9,6 +9,8 @@ from .common import kv, run_args
 __all__ = ["register", "DEMO_SCENARIO"]
 
 DEMO_SCENARIO = "park2018_case2"
+PROFILES = {"published": 0, "hardened": 1}
+"""The ``profile`` values of the paper methods by name."""
 
 
 def _sensor_offsets(scenario: str, overrides: dict) -> str:
@@ -41,11 +43,14 @@ def _run(args, estimators, out_dir) -> int:
         print(f"\r  {frac * 100:5.1f} %", end="", file=sys.stderr, flush=True)
 
     controller = None if args.controller in (None, "none") else args.controller
+    overrides = kv(args.set, "--set")
+    if getattr(args, "profile", None):
+        overrides["estimator_profile"] = PROFILES[args.profile]
     print(f"running {args.scenario}" + (f" with {', '.join(estimators)}" if estimators else "")
           + (f", controller {controller}" if controller else "") + f" -> {out_dir}", file=sys.stderr)
     run = run_scenario(args.scenario, estimators, controller, out_dir=out_dir, duration=args.duration,
                        step=args.step, record_every=args.record_every, fmu_dir=args.fmu_dir,
-                       params=kv(args.param, "--param"), overrides=kv(args.set, "--set"),
+                       params=kv(args.param, "--param"), overrides=overrides,
                        control_source=getattr(args, "control_source", None),
                        progress=progress if sys.stderr.isatty() else None,
                        master=getattr(args, "master", "fmpy"), scheme=getattr(args, "scheme", "gauss-seidel"))
@@ -104,9 +109,14 @@ def register(sub) -> None:
     run = sub.add_parser("run", help="run a scenario in closed loop")
     run_args(run, True)
     run.add_argument("--estimator", action="append", help="estimator FMU (repeatable)")
+    run.add_argument("--profile", choices=tuple(PROFILES), help="the paper methods' profile (default: the "
+                     "scenario's; a paper's scenario runs them as published)")
     run.set_defaults(func=_cmd_run)
-    demo = sub.add_parser("demo", help=f"run {DEMO_SCENARIO} with every estimator, print metrics, write a plot")
+    demo = sub.add_parser("demo", help=f"run {DEMO_SCENARIO} with every estimator (the paper methods hardened), print "
+                          "metrics, write a plot")
     run_args(demo, False)
+    demo.add_argument("--profile", choices=tuple(PROFILES), default="hardened", help="the paper methods' profile: "
+                      "hardened (default), or published, the papers' form")
     demo.set_defaults(func=_cmd_demo)
     ssp = sub.add_parser("export-ssp", help="write a scenario's closed loop as an SSP 1.0 package (FMUs inside)")
     ssp.add_argument("out", metavar="OUT.ssp", help="the package to write")

@@ -12,7 +12,8 @@ speed profile ``sqrt(a_lat_max / |kappa|)`` propagated backwards with the brakin
 At standstill with zero target the brake holds the car.
 
 The driver also emits the scenario environment: friction ``mu``, bank angle and wind
-force/moment as time tables (the plant takes them as inputs).
+force/moment as time tables (the plant takes them as inputs); a crowned road (``road_crown``) adds
+a crossfall that changes side where the car crosses the crown line, as in a lane change.
 
 Numeric configuration (hosts that cannot set String parameters, e.g. OMSimulator): the Integer
 ``maneuver_kind`` selects a maneuver (0: the String ``maneuver``; 1..n: :data:`MANEUVER_KINDS`)
@@ -66,6 +67,10 @@ class DriverConfig(VehicleConfig):
     road_bank: str = param("0", "Dimensionless", "Bank angle [rad]: a number or a time table")
     wind_force: str = param("0", "Dimensionless", "Lateral wind force [N]: a number or a time table")
     wind_moment: str = param("0", "Dimensionless", "Wind yaw moment [N.m]: a number or a time table")
+    road_crown: float = param(0.0, "Angle", "Crossfall of a crowned road, falling to each side of a crown line "
+                              "parallel to the start heading (added to the bank; 0: no crown)", ge=0, le=0.1)
+    crown_offset: float = param(1.75, "Length", "Crown line to the left of the start position (a lane's half "
+                                "width: the car starts in the right lane)", ge=-50, le=50)
     speed_kp: float = param(1.5, "InverseTime", "Speed controller: acceleration per speed error", ge=0, le=50)
     speed_ki: float = param(0.3, "IntegralGain", "Speed controller: integral gain", ge=0, le=50)
     accel_max: float = param(4.0, "Acceleration", "Largest drive acceleration the driver asks for", gt=0, le=20)
@@ -158,6 +163,8 @@ class Driver(Model):
         self._fw = TimeTable(cfg.wind_force, "wind_force")
         self._mw = TimeTable(cfg.wind_moment, "wind_moment")
         self._vlim = self._curve_speed_profile()
+        path = self.plan.path
+        self._crown_line = (float(path.x[0]), float(path.y[0]), math.sin(path.psi[0]), math.cos(path.psi[0]))
         self.reset()
 
     def _curve_speed_profile(self) -> list | None:
@@ -199,6 +206,7 @@ class Driver(Model):
         self._delta_hold = None
         self._delta = 0.0
         self._v_prev = self.plan.v_ref(0.0)
+        self._crown = self._crown_bank(self._crown_line[0], self._crown_line[1])
         v = self.vehicle
         v0 = self.plan.v_ref(0.0)
         t_ff = (v.m * GRAVITY * v.f_rr + 0.5 * v.rho_air * v.CdA * v0 * v0) * v.R_w if v0 > 0 else 0.0
@@ -210,8 +218,17 @@ class Driver(Model):
         v = self.vehicle
         return 0.3 * v.m * GRAVITY * v.R_w
 
+    def _crown_bank(self, px: float, py: float) -> float:
+        """Bank of a crowned road at the car's position [rad]: positive (left side up) right of the crown line,
+        rounded over 0.5 m either side of it as a car's width straddles the crown."""
+        if self.config.road_crown == 0.0:
+            return 0.0
+        x0, y0, s, c = self._crown_line
+        left = -(px - x0) * s + (py - y0) * c - self.config.crown_offset
+        return -self.config.road_crown * math.tanh(left / 0.5)
+
     def _pack(self, t, delta, t_drive, t_brake, v_ref) -> tuple:
-        return (delta, t_drive, t_brake, self._mu(t), self._bank(t), self._fw(t), self._mw(t),
+        return (delta, t_drive, t_brake, self._mu(t), self._bank(t) + self._crown, self._fw(t), self._mw(t),
                 delta * self.vehicle.steering_ratio, v_ref)
 
     def _pure_pursuit(self, vx: float, px: float, py: float, yaw: float) -> float:
@@ -229,6 +246,7 @@ class Driver(Model):
         """Advance by ``h`` [s] (> 0); arguments are the latest plant truth (``vx``, position, yaw)."""
         t = self._tick(h)
         cfg, v, plan = self.config, self.vehicle, self.plan
+        self._crown = self._crown_bank(X, Y)
 
         # ---- steering
         if plan.steer_sw is not None and t >= plan.t_open:

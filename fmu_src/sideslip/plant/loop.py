@@ -20,7 +20,7 @@ __all__ = ["run_loop"]
 
 def run_loop(plant: VehiclePlant, driver: Driver, duration: float, step: float = 1e-3,
              sensors: SensorSuite | None = None, observers: dict | None = None, chain=(),
-             links: dict | None = None) -> dict[str, np.ndarray]:
+             links: dict | None = None, until_failure: bool = False) -> dict[str, np.ndarray]:
     """Simulate ``duration`` [s] at communication step ``step`` [s].
 
     Parameters
@@ -35,6 +35,9 @@ def run_loop(plant: VehiclePlant, driver: Driver, duration: float, step: float =
         ``{"beta_hat": "est.beta_hat"}``); other inputs read the output of their own name.
     links : dict, optional
         The same for the driver, plant and sensors, e.g. ``{"Mz_dyc": "controller.Mz_cmd"}``.
+    until_failure : bool
+        A model's ``ValueError`` in a step (a plant's state it has no answer for) ends the run there: the arrays
+        stop at the last complete sample and ``"failure"`` holds the message (otherwise the error propagates).
 
     Returns
     -------
@@ -69,18 +72,33 @@ def run_loop(plant: VehiclePlant, driver: Driver, duration: float, step: float =
                 + [y for m in observers.values() for y in m.outputs()])
 
     rec[0] = row()
+    failure = None
     for k in range(n):
-        for m, keys in base:
-            m.step(step, *(latest.get(key, start.get(key, 0.0)) for key in keys))
-            latest.update(zip(m.output_names, m.outputs()))
-            if m is plant and plant_keys:
-                latest.update(zip(plant_keys, m.outputs()))
-        for key, m, keys in steps:
-            m.step(step, *(latest.get(k2, start.get(k2.rpartition(".")[2], 0.0)) for k2 in keys))
-            latest.update(zip((f"{key}.{nm}" for nm in m.output_names), m.outputs()))
-        for m in observers.values():
-            m.step(step, *(latest.get(nm, 0.0) for nm in m.input_names))
+        try:
+            _advance(step, latest, start, base, steps, observers, plant, plant_keys)
+        except ValueError as exc:
+            if not until_failure:
+                raise
+            failure, n = str(exc), k
+            rec = rec[:k + 1]
+            break
         rec[k + 1] = row()
     out = {nm: rec[:, i] for i, nm in enumerate(names + chain_names + obs_names)}
     out["time"] = np.arange(n + 1) * step
+    if failure is not None:
+        out["failure"] = failure
     return out
+
+
+def _advance(step, latest, start, base, steps, observers, plant, plant_keys) -> None:
+    """One communication step of every model, Gauss-Seidel (see :func:`run_loop`)."""
+    for m, keys in base:
+        m.step(step, *(latest.get(key, start.get(key, 0.0)) for key in keys))
+        latest.update(zip(m.output_names, m.outputs()))
+        if m is plant and plant_keys:
+            latest.update(zip(plant_keys, m.outputs()))
+    for key, m, keys in steps:
+        m.step(step, *(latest.get(k2, start.get(k2.rpartition(".")[2], 0.0)) for k2 in keys))
+        latest.update(zip((f"{key}.{nm}" for nm in m.output_names), m.outputs()))
+    for m in observers.values():
+        m.step(step, *(latest.get(nm, 0.0) for nm in m.input_names))

@@ -175,6 +175,27 @@ class SineSteer(_Base):
 
 
 @dataclass(frozen=True)
+class SteerSweep(_Base):
+    """Handwheel sine sweep from ``t_start``: the frequency rises linearly from ``f_start`` to ``f_end`` over
+    ``sweep_time`` (a calibration drive's excitation of the yaw dynamics, :mod:`sideslip.studies.identify`)."""
+
+    amplitude: float = param(math.radians(20), "Angle", "Handwheel amplitude", ge=0, le=15)
+    f_start: float = param(0.2, "Frequency", "Frequency at the start of the sweep", gt=0, le=10)
+    f_end: float = param(2.0, "Frequency", "Frequency at the end of the sweep", gt=0, le=10)
+    sweep_time: float = param(40.0, "Time", "Length of the sweep", gt=0, le=3600)
+    t_start: float = param(3.0, "Time", "Start of steering", ge=0, le=3600)
+
+    def plan(self, vehicle) -> Plan:
+        a, f0, t0, T = self.amplitude, self.f_start, self.t_start, self.sweep_time
+        rate = (self.f_end - f0) / T
+
+        def steer(t):
+            u = t - t0
+            return a * math.sin(2.0 * math.pi * (f0 * u + 0.5 * rate * u * u)) if 0.0 <= u <= T else 0.0
+        return Plan(self._speed(), self._straight(), steer, t0, duration=self.duration)
+
+
+@dataclass(frozen=True)
 class StepSteer(_Base):
     """Handwheel ramp to ``amplitude`` at ``rate`` from ``t_start``, then held (step steer)."""
 
@@ -407,6 +428,7 @@ MANEUVERS: dict[str, type] = {
     "slalom": Slalom,
     "circle": CircleTurn,
     "track": TrackLap,
+    "steer_sweep": SteerSweep,
 }
 
 

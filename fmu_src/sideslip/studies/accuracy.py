@@ -43,27 +43,24 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
 from ..estimators import ESTIMATORS
 from ..params import build, declared_fields
-from ..plant.driver import Driver, DriverConfig
-from ..plant.loop import run_loop
-from ..plant.sensors import SensorConfig, SensorSuite
-from ..plant.vehicle import PlantConfig, VehiclePlant
+from ..plant.sensors import SensorConfig
+from ..plant.vehicle import PlantConfig
 from ..recording import LogError, Recording, read_log, replay
 from ..scenarios import BENCHMARK_DEVELOPMENT, BENCHMARK_TEST, BENCHMARK_TRAINING, Scenario, get_scenario
-from ..signals import SENSOR_INPUTS, SENSOR_OUTPUTS
 from ..units import DEG, wrap_angle
 from ..vehicles import VehicleParams, load_vehicle
 from .jobs import map_ordered
+from .drives import COMMONROAD_VEHICLES, OWN, Drive, sensed, truth, vehicle_set
 from .metrics import score, scored_samples, valid_share
 from .real_drive import REAL, VEHICLE, is_real_drive, real_drive
 
-__all__ = ["CONDITIONS", "RECORDED", "OFF_DEG", "Row", "ROWS", "PAPER_METHODS", "Case", "cases", "log_case",
-           "sensor_errors", "vehicle_mismatch", "setup", "record", "simulate", "make_estimator", "recorded_speed",
+__all__ = ["CONDITIONS", "RECORDED", "OFF_DEG", "SPLIT_PLANTS", "OFF_PLANT_CONDITION", "Row", "ROWS",
+           "PAPER_METHODS", "Case", "cases", "log_case", "sensor_errors", "road_draw", "vehicle_mismatch", "setup", "record", "simulate", "make_estimator", "recorded_speed",
            "row_metrics", "run_case", "select_rows", "with_params", "sensor_overrides", "run_benchmark"]
 
 CONDITIONS = ("nominal", "sensors", "mismatch", "sensors+mismatch", REAL)
@@ -71,6 +68,14 @@ RECORDED = "recorded"
 """The condition of a case that is a recorded drive (:func:`log_case`)."""
 OFF_DEG = 3.0
 """[deg] an error beyond which the estimator should not say ``valid`` for long."""
+SPLIT_PLANTS = {"training": (OWN, "commonroad1"), "development": (OWN, "commonroad2"), "test": (OWN, "commonroad3")}
+"""The plants of each set: the own plant and one CommonRoad car, each car in one set only."""
+OFF_PLANT_CONDITION = "sensors+mismatch"
+"""The one condition of a case on a CommonRoad car: the sensors' errors drawn, and the vehicle the estimators get
+is the car's identified file, a mismatch by construction (it is never the plant's own parameters)."""
+CROWN_MANEUVERS = ("straight", "lane_change", "double_lane_change", "slalom")
+"""Maneuvers on a straight road, where a crowned road can be drawn (a circle or an open-loop turn leaves the road's
+line)."""
 
 
 @dataclass(frozen=True)
@@ -109,10 +114,12 @@ class Case:
     log_map: str | None = None
     vehicle: str | None = None
     sensors: tuple = ()          #: ((name, value), ...) of SensorConfig replacing the condition's (sensor_overrides)
+    plant: str = OWN             #: sideslip.studies.drives.PLANTS
 
     @property
     def name(self) -> str:
-        return f"{self.scenario}/{self.condition}/{self.seed}"
+        where = self.scenario if self.plant == OWN else f"{self.scenario}@{self.plant}"
+        return f"{where}/{self.condition}/{self.seed}"
 
 
 def log_case(path: str, log_map: str | None = None, vehicle: str | None = None) -> Case:
@@ -121,19 +128,34 @@ def log_case(path: str, log_map: str | None = None, vehicle: str | None = None) 
 
 
 def cases(scenarios=None, conditions=CONDITIONS, seeds=5, training: bool = False,
-          development: bool = False, sensors: dict | None = None) -> list[Case]:
-    """Every scenario x condition x seed (the test set by default, or the training or the development set), with
-    ``sensors`` (:func:`sensor_overrides`) replacing those sensor values of every case."""
-    chosen = BENCHMARK_TRAINING if training else BENCHMARK_DEVELOPMENT if development else BENCHMARK_TEST
-    real = "stanford2014_train" if training else "stanford2014_dev" if development else "stanford2014_test"
+          development: bool = False, sensors: dict | None = None, plants=None) -> list[Case]:
+    """Every scenario x condition x seed on every plant of the set (the test set by default, or the training or the
+    development set; :data:`SPLIT_PLANTS`), with ``sensors`` (:func:`sensor_overrides`) replacing those sensor values
+    of every case.  ``plants`` keeps some of the set's plants: ``own`` or ``commonroad`` (its car in this set).
+    A CommonRoad car runs :data:`OFF_PLANT_CONDITION` only."""
+    split = "training" if training else "development" if development else "test"
+    chosen = {"training": BENCHMARK_TRAINING, "development": BENCHMARK_DEVELOPMENT, "test": BENCHMARK_TEST}[split]
+    real = {"training": "stanford2014_train", "development": "stanford2014_dev", "test": "stanford2014_test"}[split]
     names = scenarios or [s.name for s in chosen] + [real]
     for c in conditions:
         if c not in CONDITIONS:
             raise ValueError(f"unknown condition {c!r}; conditions: {', '.join(CONDITIONS)}")
+    kinds = set(plants or ("own", "commonroad"))
+    if kinds - {"own", "commonroad"}:
+        raise ValueError(f"unknown plant {sorted(kinds - {'own', 'commonroad'})[0]!r}; plants: own, commonroad")
     fixed = tuple(sensor_overrides(sensors).items())
-    # a real drive has one condition, its own sensors; a simulated scenario every other
-    return [Case(n, c, s, sensors=fixed) for n in names for c in conditions
-            if (c == REAL) == is_real_drive(n) for s in range(seeds)]
+    out = []
+    for plant in SPLIT_PLANTS[split]:
+        if ("own" if plant == OWN else "commonroad") not in kinds:
+            continue
+        for n in names:
+            if plant != OWN and is_real_drive(n):
+                continue
+            # a real drive has one condition, its own sensors; a simulated scenario every other
+            out += [Case(n, c, s, sensors=fixed, plant=plant) for c in conditions
+                    if (c == REAL) == is_real_drive(n) and (plant == OWN or c == OFF_PLANT_CONDITION)
+                    for s in range(seeds)]
+    return out
 
 
 def sensor_overrides(values: dict | None) -> dict:
@@ -182,6 +204,19 @@ def vehicle_mismatch(vehicle: VehicleParams, case: Case) -> VehicleParams:
         "l_f": v.l_f + dcg, "l_r": v.l_r - dcg, "l_fs": v.l_fs + dcg, "l_rs": v.l_rs - dcg})
 
 
+def road_draw(case: Case, scenario: Scenario) -> dict:
+    """The road of a case with sensor errors, as the driver's parameters: a crossfall of 0-3 % to either side added to
+    the scenario's bank, or, on a straight road (:data:`CROWN_MANEUVERS`) with even odds, a crowned road falling
+    0.5-3 % to each side of the lane line left of the start (a lane change crosses it), drawn from its seed."""
+    r = _rng(case, "road")
+    crowned = r.random() < 0.5
+    slope = math.atan(r.uniform(0.0, 0.03))
+    side = 1.0 if r.random() < 0.5 else -1.0
+    if crowned and scenario.maneuver.partition(":")[0].strip() in CROWN_MANEUVERS:
+        return {"road_crown": max(slope, math.atan(0.005))}
+    return {"road_bank": f"{float(scenario.road_bank) + side * slope:.10g}"}
+
+
 @dataclass
 class CaseSetup:
     """What a case is made of."""
@@ -189,13 +224,14 @@ class CaseSetup:
     scenario: Scenario
     plant: dict
     sensors: dict
-    vehicle: VehicleParams           #: the plant's
+    vehicle: VehicleParams           #: the plant's (on a CommonRoad car: the car's identified file, what is known)
     estimator_vehicle: VehicleParams
     calibrated_field: bool           #: estimators get the sensors' Earth field
+    driver: dict = None              #: the driver's parameters (the scenario's, with the drawn road)
 
 
 def setup(case: Case, overrides: dict | None = None) -> CaseSetup:
-    """The scenario (with ``overrides``), plant and sensor parameters and the estimators' vehicle of a case
+    """The scenario (with ``overrides``), driver, plant and sensor parameters and the estimators' vehicle of a case
     (of a recorded drive: the vehicle named by the case, or None for each estimator's own default)."""
     if case.condition == RECORDED:
         return CaseSetup(None, {}, {}, None, load_vehicle(case.vehicle) if case.vehicle else None, False)
@@ -205,57 +241,49 @@ def setup(case: Case, overrides: dict | None = None) -> CaseSetup:
         return CaseSetup(None, {}, sensors, vehicle, vehicle, False)
     sc = get_scenario(case.scenario, **(overrides or {}))
     sensors = {**sc.sensor_params(), "seed": 1000 + case.seed}
-    plant = dict(sc.plant_params())
+    driver = sc.driver_params()
     noisy = "sensors" in case.condition
     if noisy:
         sensors.update(sensor_errors(case))
+        driver.update(road_draw(case, sc))
     sensors.update(case.sensors)
+    n = vehicle_set(case.plant)
+    if n is not None:                          # a CommonRoad car, known by its identified file
+        known = load_vehicle(COMMONROAD_VEHICLES[n])
+        driver.update(vehicle=COMMONROAD_VEHICLES[n], vehicle_overrides="")
+        return CaseSetup(sc, {"vx0": sc.initial_speed}, sensors, known, known, False, driver)
+    plant = dict(sc.plant_params())
     vehicle = build(PlantConfig, plant).vehicle_params()
     estimator_vehicle = vehicle
     if "mismatch" in case.condition:
         plant["tire_model"] = 1
         estimator_vehicle = vehicle_mismatch(vehicle, case)
-    return CaseSetup(sc, plant, sensors, vehicle, estimator_vehicle, calibrated_field=not noisy)
+    return CaseSetup(sc, plant, sensors, vehicle, estimator_vehicle, not noisy, driver)
 
 
 # ---------------------------------------------------------------------------------------- one case
-@lru_cache(maxsize=4)
-def _truth(scenario: str, tire_model: int, step: float = 1e-3) -> dict:
-    """Driver and plant of a scenario on one tire model (no randomness: shared by every condition and seed
-    on these tires)."""
-    sc = get_scenario(scenario)
-    driver = Driver(build(DriverConfig, sc.driver_params()))
-    plant = VehiclePlant(build(PlantConfig, {**sc.plant_params(), "tire_model": tire_model}))
-    return run_loop(plant, driver, sc.duration, step)
-
-
-def record(scenario: str, sensors: dict, tire_model: int = 0, step: float = 1e-3, name: str = "") -> Recording:
+def record(scenario: str, sensors: dict, tire_model: int = 0, step: float = 1e-3, name: str = "",
+           driver: dict | None = None, plant: str = OWN, plant_values: dict | None = None) -> Recording:
     """Driver, plant and sensors of a scenario, as the fmpy master's Gauss-Seidel loop runs them: the sensors
     (:class:`~sideslip.plant.sensors.SensorConfig` values ``sensors``) sample the plant's truth at the end of
-    every step, so the truth of a scenario on one tire model is simulated once and sampled by the sensors of
-    each condition and seed."""
-    truth = _truth(scenario, tire_model, step)
-    suite = SensorSuite(build(SensorConfig, sensors))
-    n = len(truth["time"])
-    inputs = np.column_stack([truth[nm] for nm in SENSOR_INPUTS]).tolist()
-    out = np.empty((n, len(SENSOR_OUTPUTS)))
-    out[0] = suite.outputs()
-    for k in range(1, n):
-        suite.step(step, *inputs[k])
-        out[k] = suite.outputs()
-    signals = {nm: out[:, i] for i, nm in enumerate(SENSOR_OUTPUTS)}
-    signals["mu"] = truth["mu"]
-    reference = {nm: truth[nm] for nm in ("beta", "vx", "vy", "yaw_rate", "ay", "roll", "yaw")}
-    return Recording(truth["time"], signals, reference, name or scenario)
+    every step (:mod:`sideslip.studies.drives`), so the truth of a scenario on one plant and road is simulated once
+    and sampled by the sensors of each condition and seed.  ``driver`` and ``plant_values`` replace the scenario's
+    driver and plant parameters (default: its own, the plant on ``tire_model``)."""
+    sc = get_scenario(scenario)
+    values = plant_values if plant_values is not None else {**sc.plant_params(), "tire_model": tire_model}
+    drive = Drive(plant, tuple(sorted((driver or sc.driver_params()).items())), tuple(sorted(values.items())),
+                  sc.duration)
+    return sensed(truth(drive, step), sensors, step, name or scenario)
 
 
 def simulate(case: Case, step: float = 1e-3) -> Recording:
-    """The recorded drive of a case (:func:`record` with its sensors and tires; a real drive's slice with its derived
-    sensors)."""
+    """The recorded drive of a case (:func:`record` with its road, plant and sensors; a real drive's slice with its
+    derived sensors)."""
     s = setup(case)
     if case.condition == REAL:
         return real_drive(case.scenario, s.sensors)
-    return record(case.scenario, s.sensors, s.plant.get("tire_model", 0), step, case.name)
+    return record(case.scenario, s.sensors, step=step, name=case.name, driver=s.driver, plant=case.plant,
+                  plant_values=s.plant)
 
 
 def make_estimator(row: Row, s: CaseSetup):
@@ -304,11 +332,13 @@ def row_metrics(rec: Recording, beta_hat, std, valid) -> dict:
     nan = float("nan")
     if not moving.any():
         return {**out, **dict.fromkeys(("rms", "max", "zero_rms", "rms_valid", "zero_rms_valid", "std_ratio", "nees",
-                                        "coverage95"), nan), "off_while_valid": 0.0}
+                                        "coverage95", "not_valid_when_worse"), nan), "off_while_valid": 0.0}
     beta_deg = beta * DEG
     every, on_valid = score(err, beta_deg, moving), score(err, beta_deg, ok)
+    worse = moving & (np.abs(err) > np.abs(beta) * DEG)
     out.update(rms=every["rms"], max=every["max"], zero_rms=every["zero_rms"], rms_valid=on_valid["rms"],
-               zero_rms_valid=on_valid["zero_rms"], off_while_valid=_longest(ok & (np.abs(err) > OFF_DEG), dt))
+               zero_rms_valid=on_valid["zero_rms"], off_while_valid=_longest(ok & (np.abs(err) > OFF_DEG), dt),
+               not_valid_when_worse=float(np.mean(~ok[worse])) if worse.any() else nan)
     if np.isfinite(std).all():                   # predict-zero reports no uncertainty
         e, s = err[moving], np.maximum(std[moving], 1e-9)
         out.update(std_ratio=every["rms"] / float(np.sqrt(np.mean(s ** 2))), nees=float(np.mean((e / s) ** 2)),
@@ -336,6 +366,7 @@ def run_case(case: Case, rows=ROWS, traces: bool = False) -> dict:
                        "to score the estimators against")
     mu = rec.signals.get("mu")
     out = {"case": case.name, "scenario": case.scenario, "condition": case.condition, "seed": case.seed,
+           "plant": case.plant, "duration_s": rec.duration,
            "mu_min": float(np.min(mu)) if mu is not None else float("nan"), "rows": {}}
     if traces:
         out["traces"] = {"time": rec.time[::20].tolist(), "beta": (rec.reference["beta"][::20] * DEG).tolist()}
@@ -363,7 +394,7 @@ def run_case(case: Case, rows=ROWS, traces: bool = False) -> dict:
 
 
 def _scenario_job(job) -> list[dict]:
-    """The cases of one scenario (one worker simulates its truth once per tire model)."""
+    """The cases of one scenario on one plant (one worker simulates each of its truths once)."""
     case_list, rows = job
     return [run_case(c, rows, traces=c.seed == 0) for c in case_list]
 
@@ -406,11 +437,11 @@ def with_params(rows, params: dict | None) -> tuple:
 
 
 def run_benchmark(case_list, rows=ROWS, workers: int = 2, scheduler=None, progress: bool = True) -> list[dict]:
-    """Run cases in parallel on :mod:`sideslip.studies.jobs`, one job per scenario; results in the
+    """Run cases in parallel on :mod:`sideslip.studies.jobs`, one job per scenario and plant; results in the
     cases' order, with traces kept for seed 0."""
-    by_scenario: dict[str, list] = {}
+    by_scenario: dict[tuple, list] = {}
     for c in case_list:
-        by_scenario.setdefault(c.scenario, []).append(c)
+        by_scenario.setdefault((c.scenario, c.plant), []).append(c)
     done = {}
     jobs = [(group, tuple(rows)) for group in by_scenario.values()]
     for group in map_ordered(_scenario_job, jobs, workers, scheduler, progress, "scenarios"):

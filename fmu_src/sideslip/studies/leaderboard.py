@@ -13,10 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["short_name", "summarise", "leaderboard_markdown", "write_report"]
+__all__ = ["short_name", "group", "summarise", "leaderboard_markdown", "write_report"]
 
-_FIELDS = ("rms", "max", "zero_rms", "rms_valid", "zero_rms_valid", "restarts", "valid", "time_to_valid", "std_ratio", "nees", "coverage95", "off_while_valid",
-           "max_abs_beta")
+_FIELDS = ("rms", "max", "zero_rms", "rms_valid", "zero_rms_valid", "restarts", "valid", "time_to_valid", "std_ratio",
+           "nees", "coverage95", "off_while_valid", "max_abs_beta", "not_valid_when_worse")
 
 
 def short_name(scenario: str) -> str:
@@ -29,14 +29,22 @@ def _nanmean(values):
     return float(np.mean(values)) if values else float("nan")
 
 
+def group(result: dict) -> str:
+    """The table a case's result belongs to: its condition, on a CommonRoad car ``"<condition> on <plant>"``."""
+    plant = result.get("plant", "own")
+    return result["condition"] if plant == "own" else f"{result['condition']} on {plant}"
+
+
 def summarise(results: list[dict]) -> dict:
     """``{condition: {"scenarios": [...], "rows": {label: {"per_scenario": {scenario: {field: mean,
     "rms_min", "rms_max"}}, "mean_rms", "beats_zero", "cases_beta_1deg", "std_ratio", "coverage95",
-    "worst_off_while_valid", "valid"}}}}``: means over seeds; ``beats_zero`` counts the scenarios with
-    a true sideslip of at least 1 deg where the row's mean RMS is below predict-zero's on the same samples."""
+    "worst_off_while_valid", "total_off_while_valid", "valid"}}}}`` per :func:`group`: means over seeds;
+    ``beats_zero`` counts the scenarios with a true sideslip of at least 1 deg where the row's mean RMS is below
+    predict-zero's on the same samples, ``beats_zero_05`` the same over the cases (seeds apart) with a peak of
+    0.5 deg or more."""
     out: dict = {}
     for r in results:
-        cond = out.setdefault(r["condition"], {"scenarios": [], "rows": {}, "mu_min": {}})
+        cond = out.setdefault(group(r), {"scenarios": [], "rows": {}, "mu_min": {}})
         if r["scenario"] not in cond["scenarios"]:
             cond["scenarios"].append(r["scenario"])
         cond["mu_min"][r["scenario"]] = r["mu_min"]
@@ -46,9 +54,14 @@ def summarise(results: list[dict]) -> dict:
     for cond in out.values():
         for label, row in cond["rows"].items():
             per = {}
+            every = [m for ms in row["per_scenario"].values() for m in ms]
+            big = [m for m in every if m["max_abs_beta"] >= 0.5]
+            row.update(beats_zero_05=sum(1 for m in big if m["rms"] < m["zero_rms"]), cases_beta_05=len(big),
+                       total_off_while_valid=float(sum(m["off_while_valid"] for m in every)),
+                       not_valid_when_worse=_nanmean([m.get("not_valid_when_worse", float("nan")) for m in every]))
             for sc, ms in row["per_scenario"].items():
                 rms = [m["rms"] for m in ms]
-                per[sc] = {f: _nanmean([m[f] for m in ms]) for f in _FIELDS}
+                per[sc] = {f: _nanmean([m.get(f, float("nan")) for m in ms]) for f in _FIELDS}
                 per[sc].update(rms_min=float(np.nanmin(rms)) if np.isfinite(rms).any() else float("nan"),
                                rms_max=float(np.nanmax(rms)) if np.isfinite(rms).any() else float("nan"),
                                seeds=len(ms))
@@ -78,12 +91,13 @@ def leaderboard_markdown(summary: dict, title: str = "") -> str:
                   "predict-zero's; *RMS err / RMS std* and *within 1.96 std*: the consistency of beta_hat_std "
                   "(1 and 95 % when consistent); *valid*: share of moving samples; *longest > 3 deg while valid*: "
                   "the worst case's longest stretch.", "",
-                  "| estimator | " + " | ".join(short) + " | mean | beats predict-zero | RMS err / RMS std | "
-                  "within 1.96 std | valid | longest > 3 deg while valid [s] |",
-                  "|---|" + "---:|" * (len(scenarios) + 6)]
+                  "| estimator | " + " | ".join(short) + " | mean | beats predict-zero | cases beating it (peak >= "
+                  "0.5 deg) | RMS err / RMS std | within 1.96 std | valid | not valid where worse than zero | longest "
+                  "> 3 deg while valid [s] | summed [s] |",
+                  "|---|" + "---:|" * (len(scenarios) + 10)]
         first = next(iter(data["rows"].values()))["per_scenario"]
         lines.append("| *peak beta [deg], mu* | " + " | ".join(
-            f"*{first[sc]['max_abs_beta']:.1f}, {data['mu_min'][sc]:.2g}*" for sc in scenarios) + " | | | | | | |")
+            f"*{first[sc]['max_abs_beta']:.1f}, {data['mu_min'][sc]:.2g}*" for sc in scenarios) + " |" * 11)
         order = sorted(data["rows"].items(), key=lambda kv: (kv[0] != "predict-zero", kv[1]["mean_rms"]))
         for label, row in order:
             cells = []
@@ -93,9 +107,15 @@ def leaderboard_markdown(summary: dict, title: str = "") -> str:
                 cells.append(f"{v['rms']:.2f}{spread}")
             lines.append(f"| {label} | " + " | ".join(cells) +
                          f" | **{row['mean_rms']:.2f}** | {row['beats_zero']} of {row['cases_beta_1deg']} | "
+                         f"{row['beats_zero_05']} of {row['cases_beta_05']} | "
                          f"{row['std_ratio']:.2f} | {100 * row['coverage95']:.0f} % | {100 * row['valid']:.0f} % | "
-                         f"{row['worst_off_while_valid']:.1f} |")
+                         f"{_percent(row['not_valid_when_worse'])} | "
+                         f"{row['worst_off_while_valid']:.1f} | {row['total_off_while_valid']:.1f} |")
     return "\n".join(lines).lstrip() + "\n"
+
+
+def _percent(share: float) -> str:
+    return f"{100 * share:.0f} %" if math.isfinite(share) else "-"
 
 
 def _heatmap(data: dict, condition: str, path: Path) -> None:
@@ -173,7 +193,11 @@ def write_report(results: list[dict], out_dir: str | Path, title: str = "Sidesli
          "cases": [{k: v for k, v in r.items() if k != "traces"} for r in results]}, indent=1, default=float))
     cond = heatmap_condition if heatmap_condition in summary else next(iter(summary))
     _heatmap(summary[cond], cond, out / "heatmap.png")
+    for key in summary:                              # the same condition on another plant
+        if key.startswith(f"{cond} on "):
+            _heatmap(summary[key], key, out / f"heatmap_{key.rpartition(' on ')[2]}.png")
     for r in results:
         if "traces" in r and r["condition"] == cond:
-            _error_plot(r, out / f"errors_{short_name(r['scenario'])}.png")
+            plant = "" if r.get("plant", "own") == "own" else f"_{r['plant']}"
+            _error_plot(r, out / f"errors_{short_name(r['scenario'])}{plant}.png")
     return summary

@@ -1,0 +1,81 @@
+"""``identify`` and ``calibrate``: a vehicle file from a calibration drive (:mod:`sideslip.studies.identify`)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["register"]
+
+
+def _window(text: str) -> tuple[float, float]:
+    try:
+        t0, t1 = (float(v) for v in text.split(":"))
+    except ValueError:
+        raise SystemExit(f"--low-friction: expected START:END in seconds, got {text!r}") from None
+    if not t1 > t0:
+        raise SystemExit(f"--low-friction {text}: END must be after START")
+    return t0, t1
+
+
+def _cmd_identify(args) -> int:
+    from ..recording import read_log
+    from ..studies.identify import identify, vehicle_toml
+    from ..vehicles import load_vehicle
+
+    base = load_vehicle(args.vehicle)
+    logs = [read_log(p, args.map) for p in args.log]
+    lows = [read_log(p, args.map) for p in args.low_friction_log or []]
+    result = identify(logs, base, fix=args.fix or (), low_friction=[_window(w) for w in args.low_friction or []],
+                      low_friction_logs=lows)
+    print(result.table())
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(vehicle_toml(result, args.vehicle, args.log + (args.low_friction_log or [])))
+    print(f"\nwrote {out} (check it with: python -m sideslip replay --vehicle {out} ...)")
+    return 0
+
+
+def _cmd_calibrate(args) -> int:
+    from ..recording import write_log
+    from ..studies.calibration import calibrate, commonroad_vehicle_file
+    from ..studies.identify import vehicle_toml
+
+    cal = calibrate(args.plant, args.vehicle, args.seed)
+    print(f"calibration drive on {args.plant}" + (f" ({args.vehicle})" if args.plant == "own" else "")
+          + f", sensors of seed {args.seed}:\n" + cal.table())
+    if args.logs:
+        for leg, rec in cal.legs.items():
+            print("wrote", write_log(rec.on_grid(0.01), Path(args.logs) / f"{leg}.csv"))
+    if args.out:
+        text = (vehicle_toml(cal.result, args.vehicle, ["the calibration drive on the own plant"])
+                if args.plant == "own" else commonroad_vehicle_file(cal))
+        Path(args.out).write_text(text)
+        print("wrote", args.out)
+    return 0
+
+
+def register(sub) -> None:
+    ide = sub.add_parser("identify", help="a vehicle file from a calibration drive: cornering stiffnesses, yaw "
+                         "inertia, steering gain and the sensors' offsets, each with its standard deviation",
+                         description="Fit the single-track model to a calibration drive (a slow circle both ways and "
+                         "a steering sweep; see the 'Your car' page) and write a vehicle file inheriting --vehicle.")
+    ide.add_argument("--log", action="append", required=True, help="a CSV log of the drive (repeatable: one per leg)")
+    ide.add_argument("--map", help="TOML map of the logs' columns to signals, units, scale and offset")
+    ide.add_argument("--vehicle", required=True, help="the car as known (bundled name or TOML file): mass, geometry, "
+                     "rolling radius and track are used as they are")
+    ide.add_argument("--out", required=True, help="the vehicle file to write")
+    ide.add_argument("--fix", action="append", metavar="NAME", help="hold a parameter at the base's value instead of "
+                     "fitting it (repeatable)")
+    ide.add_argument("--low-friction", action="append", metavar="START:END", help="time window [s] driven on a "
+                     "low-friction surface (repeatable)")
+    ide.add_argument("--low-friction-log", action="append", metavar="LOG", help="a log driven on a low-friction "
+                     "surface throughout (repeatable)")
+    ide.set_defaults(func=_cmd_identify)
+    cal = sub.add_parser("calibrate", help="drive the calibration procedure on a simulated plant and identify the "
+                         "car, each value beside the plant's truth")
+    cal.add_argument("--plant", default="commonroad2", help="own, commonroad1, commonroad2 or commonroad3 "
+                     "(default %(default)s)")
+    cal.add_argument("--vehicle", default="pi2011_suv", help="the own plant's vehicle (default %(default)s)")
+    cal.add_argument("--seed", type=int, default=0, help="the sensors' draw (default %(default)s)")
+    cal.add_argument("--logs", help="also write the drive's legs as CSV logs into this folder")
+    cal.add_argument("--out", help="write the identified vehicle file here")
+    cal.set_defaults(func=_cmd_calibrate)
