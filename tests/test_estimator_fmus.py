@@ -28,7 +28,8 @@ def recorded():
     """Sensor signals (and the library estimator outputs) of the first 8 s of each case."""
     out = {}
     for name, scenario in CASES:
-        res = run_library(scenario, [name], duration=8.0)
+        res = run_library(scenario, [name], duration=8.0,
+                          params={f"{name}.{k}": v for k, v in _PROFILE.get(name, {}).items()})
         cls = ESTIMATORS[name]
         inputs = np.column_stack([_signal(res, n) for n in cls.input_names])
         outputs = np.column_stack([res[f"{name}.{n}"] for n in cls.output_names])
@@ -44,8 +45,13 @@ def _signal(res, name):
     return np.zeros_like(res["time"])
 
 
+# as published, Yoon 2014 calibrates its gyro at a standstill, which its case shortens: its estimate is degrees off and,
+# by the published profile's consistency check, not valid; these tests follow the method's own flag
+_PROFILE = {"Yoon2014DualKF": {"consistency_check": False}}
+
+
 def _params(name, scenario):
-    return scenario_params(ESTIMATORS[name].config_class, scenario)
+    return {**scenario_params(ESTIMATORS[name].config_class, scenario), **_PROFILE.get(name, {})}
 
 
 def _inputs(name, row):

@@ -128,6 +128,12 @@ def test_the_procedure_on_the_own_plant_recovers_its_offsets_and_an_effective_ca
     for name in ("C_f_nominal", "C_r_nominal", "I_zz", "C_f_nominal_lo", "C_r_nominal_lo"):
         assert e[name].value == pytest.approx(ref[name], rel=0.2), name
     assert not e["C_f_nominal_lo"].fixed                          # the drive has its low-friction leg
+    # the roll's gravity in the accelerometer against the plant's roll gradient, and the roll model written from it
+    assert e["ay_roll_gain"].value == pytest.approx(ref["ay_roll_gain"], abs=0.02)     # 0.152 against 0.167
+    v = cal.result.vehicle
+    mgh = v.m_s * 9.81 * v.h_s
+    assert mgh / (v.K_phi_f + v.K_phi_r - mgh) == pytest.approx(e["ay_roll_gain"].value, rel=1e-9)
+    assert "K_phi_f" in vehicle_toml(cal.result, "pi2011_suv", ["drive"])
     assert cal.result.beta_rms < 0.3 * RAD_PER_DEG               # the fitted model's sideslip against the truth
     assert "reference" in cal.table()
 

@@ -43,7 +43,7 @@ sensors and vehicles other than the paper's, each with the failure it answers:
   range the estimated steering absorbs what the linear tires cannot explain, and the residual
   against the steering sensor shows it (on packed snow at the limit it reaches 0.12 rad, in a lane
   change on dry asphalt 0.02).
-* **The kinematics as a check** (:class:`~sideslip.estimators.model_trust.KinematicCheck`): where both
+* **The kinematics as a check** (:class:`~sideslip.estimators.model_checks.KinematicCheck`): where both
   axles saturate together (a sine steer as the friction drops to 0.4) the tire-linearity test and the
   steering residual see little for a second while the car slides by 5 deg; the estimate's departure
   from ``d(beta)/dt = a_y / v_x - r`` enters the reported std (``kinematic_check``).

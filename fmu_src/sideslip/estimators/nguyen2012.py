@@ -58,7 +58,7 @@ sensors and vehicles other than the paper's, each with the failure it answers:
   GPS is out longer than ``gps_coast``, while the innovations are inconsistent and while the std
   exceeds ``valid_std_max``; inconsistent yaw-rate innovations (a diverged filter) restart the filter.
   The estimate's departure from the kinematics ``d(beta)/dt = a_y / v_x - r``
-  (:class:`~sideslip.estimators.model_trust.KinematicCheck`, ``kinematic_check``) adds to the reported
+  (:class:`~sideslip.estimators.model_checks.KinematicCheck`, ``kinematic_check``) adds to the reported
   std: in a J-turn on a wet road the kinematic blend follows the accelerometer's offset and roll, and
   the check keeps the stretches of more than 3 deg off while valid short.
   The gyro-offset state is not bounded to a datasheet's offset: clamping a Kalman state leaves its

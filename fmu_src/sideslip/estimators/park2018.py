@@ -55,7 +55,7 @@ sensors and drives other than the paper's, each with the failure it answers:
   (its sideslip variance raised beyond the tires' linear range,
   :class:`~sideslip.estimators.model_trust.ModelTrust`) and the kinematic one's inflated by the
   consistency of the GPS innovations, plus the output's departure from the kinematics
-  ``d(beta)/dt = a_y / v_x - r`` (:class:`~sideslip.estimators.model_trust.KinematicCheck`,
+  ``d(beta)/dt = a_y / v_x - r`` (:class:`~sideslip.estimators.model_checks.KinematicCheck`,
   ``kinematic_check``); ``valid`` is false while the GPS is out longer than ``gps_coast``, while
   those innovations are inconsistent and while the std exceeds ``valid_std_max``.
 """

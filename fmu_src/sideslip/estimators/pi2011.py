@@ -63,7 +63,7 @@ vehicles and sensors other than the paper's, each with the failure it answers:
   reported std by the consistency of the innovations and adds the linear tires' model error; beyond
   their range the sideslip's variance is raised (:class:`~sideslip.estimators.model_trust.ModelTrust`);
   ``valid`` is false while the std exceeds ``valid_std_max``.
-* **The kinematics as a check** (:class:`~sideslip.estimators.model_trust.KinematicCheck`,
+* **The kinematics as a check** (:class:`~sideslip.estimators.model_checks.KinematicCheck`,
   ``kinematic_check``): the estimate's departure from ``d(beta)/dt = a_y / v_x - r`` enters the
   reported std, so a slide with both axles saturated, which the linearity test sees late, makes the
   estimate not valid.

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..constants import GRAVITY
 from ..scenarios import _BENCH_SENSORS
 from ..units import DEG
 from ..vehicles import load_vehicle
@@ -41,6 +42,7 @@ class Calibration:
     result: Identification
     reference: dict
     legs: dict
+    seed: int = 0                    #: the sensors' draw
 
     def table(self) -> str:
         """Each identified value, its standard deviation and its reference, display units."""
@@ -82,7 +84,10 @@ def calibrate(plant: str, vehicle: str = "pi2011_suv", seed: int = 0) -> Calibra
     reference["steer_gain"] = 1.0
     if n is None:
         lo = base.mu_lo == CALIBRATION_LOW_MU
+        # the roll model's steady gradient, g m_s h_s / (K_phi - m_s g h_s) (the plant's roll equation)
+        mgh = base.m_s * GRAVITY * base.h_s
         reference.update(C_f_nominal=2 * base.C_alpha_f, C_r_nominal=2 * base.C_alpha_r, I_zz=base.I_zz,
+                         ay_roll_gain=mgh / (base.K_phi_f + base.K_phi_r - mgh),
                          **({"C_f_nominal_lo": 2 * base.C_alpha_f_lo, "C_r_nominal_lo": 2 * base.C_alpha_r_lo}
                             if lo else {}))
     else:
@@ -92,7 +97,7 @@ def calibrate(plant: str, vehicle: str = "pi2011_suv", seed: int = 0) -> Calibra
         c_f, c_r = pac2002_axle_stiffness(n)
         reference.update(C_f_nominal=c_f, C_r_nominal=c_r, C_f_nominal_lo=c_f, C_r_nominal_lo=c_r,
                          I_zz=p.I_z + p.m_uf * overrides["l_f"] ** 2 + p.m_ur * overrides["l_r"] ** 2)
-    return Calibration(plant, result, reference, legs)
+    return Calibration(plant, result, reference, legs, seed)
 
 
 def commonroad_vehicle_file(calibration: Calibration) -> str:
@@ -109,7 +114,7 @@ def commonroad_vehicle_file(calibration: Calibration) -> str:
     source = (f"[source]\npaper = \"CommonRoad vehicle models, parameter set {n} ({VEHICLE_SETS[n]}), as a user "
               "knows the car\"\n"
               "table = \"masses, CG position and height, tracks, rolling radius and drive/brake split from the set; "
-              f"the cornering stiffnesses and the yaw inertia identified (python -m sideslip calibrate --plant "
-              f"{calibration.plant}); the rest from the base car\"\n"
+              f"the cornering stiffnesses, the yaw inertia and the roll stiffness identified (python -m sideslip calibrate --plant "
+              f"{calibration.plant} --seed {calibration.seed}); the rest from the base car\"\n"
               f"[source.assumed]\n\"*\" = \"the base car's ({COMMONROAD_TEMPLATE})\"\n\n")
     return head + source + "[params]\n" + given + "\n" + rest

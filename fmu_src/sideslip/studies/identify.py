@@ -24,6 +24,12 @@ correlation time, :func:`_inflation`):
   RMS (iterated: the maximum-likelihood weights), by :func:`scipy.optimize.least_squares`;
   the steady circles give the gain, the offsets and the understeer, the sweep the stiffnesses' split
   and the inertia;
+* **the roll stiffness** - from ``k_phi``: the roll model's steady gradient ``d(phi)/d(a_y) = m_s h_s / (K_phi -
+  m_s g h_s)`` (:mod:`~sideslip.estimators.roll`) gives ``K_phi = m_s h_s g (1 + 1 / k_phi)``, split front to rear
+  as the base's, the dampers scaled by the square root of the net stiffness ``K_phi - m_s g h_s`` (the base's damping
+  ratio; the drive shows the roll's gain, not its damping).  The estimators remove the
+  roll's gravity from the lateral accelerometer with it, and a roll model off by a factor puts that factor's share
+  of ``g sin(phi)`` into the tire forces (0.9 m/s2 at 0.8 g for a base car 2.6 times stiffer in roll than the car);
 * **the longitudinal accelerometer's offset** - the mean of ``ax_m - dv_x/dt`` on straight driving;
 * **low-friction stiffnesses** (``C_f_nominal_lo``, ``C_r_nominal_lo``) on the ``low_friction`` windows
   with everything else held; without them they keep the base vehicle's ratio to the dry values.
@@ -41,6 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..constants import GRAVITY
 from ..recording import LogError, Recording
 from ..units import DEG
 from ..vehicles import VehicleParams
@@ -54,6 +61,8 @@ MOVING = 3.0
 """[m/s] samples slower than this are not fitted (the single-track model needs speed)."""
 SETTLE = 2.0
 """[s] residuals of a log's first seconds are not fitted (the model starts from a steady state)."""
+ROLL = ("K_phi_f", "K_phi_r", "C_phi_f", "C_phi_r")
+"""The roll model's parameters written from the fitted roll gain."""
 
 _MODEL = ("C_f_nominal", "C_r_nominal", "I_zz", "steer_gain", "steer_bias", "ay_bias", "ay_roll_gain")
 FITTED = ("yaw_rate_bias",) + _MODEL + ("ax_bias",)
@@ -409,8 +418,25 @@ def identify(recordings, base: VehicleParams, fix=(), low_friction=(), low_frict
         est["ax_bias"] = Estimate(value, sd, "m/s2")
     est.update(_low_friction(drives, base, b_r, theta, weights, bool(low_friction) or bool(lows)))
     fitted = {n: est[n].value for n in ("C_f_nominal", "C_r_nominal", "I_zz", "C_f_nominal_lo", "C_r_nominal_lo")}
+    if "ay_roll_gain" not in fix:
+        fitted.update(_roll(base, est["ay_roll_gain"].value))
     vehicle = base.with_overrides(fitted)
     return _summary(drives, vehicle, theta, b_r, est)
+
+
+def _roll(base: VehicleParams, k_phi: float) -> dict:
+    """The roll stiffnesses and dampers of the fitted roll gain ``k_phi`` (module docstring)."""
+    if k_phi <= 0.0:
+        raise IdentificationError("ay_roll_gain", f"the fitted roll gain {k_phi:.4g} is not positive (the "
+                                  "accelerometer reads less than the car's acceleration in a turn: mounted or "
+                                  "scaled wrong)")
+    mgh = base.m_s * GRAVITY * base.h_s
+    k_old = base.K_phi_f + base.K_phi_r
+    k_new = mgh * (1.0 + 1.0 / k_phi)
+    front = base.K_phi_f / k_old
+    damping = math.sqrt((k_new - mgh) / (k_old - mgh))     # of the net roll stiffness: the damping ratio kept
+    return {"K_phi_f": front * k_new, "K_phi_r": (1.0 - front) * k_new, "C_phi_f": base.C_phi_f * damping,
+            "C_phi_r": base.C_phi_r * damping}
 
 
 def _low_friction(drives, base, b_r, theta, weights, given: bool) -> dict:
@@ -456,6 +482,8 @@ def vehicle_toml(result: Identification, base: str, logs) -> str:
              f"base = {_quote(base)}", "", "[params]"]
     for name in ("C_f_nominal", "C_r_nominal", "I_zz", "C_f_nominal_lo", "C_r_nominal_lo"):
         lines.append(f"{name} = {getattr(result.vehicle, name):.6g}")
+    if not result.estimates["ay_roll_gain"].fixed:              # the roll model of the fitted roll gain
+        lines += [f"{name} = {getattr(result.vehicle, name):.6g}" for name in ROLL]
     lines += ["", "[identified]", "# value and standard deviation in SI units; 'held' values were not fitted"]
     for name, e in result.estimates.items():
         lines.append(f"{name} = {{ value = {e.value:.6g}, std = {e.std:.3g}, unit = {_quote(e.unit)}"

@@ -118,11 +118,14 @@ def _job(args):
     return run.metrics, {f: np.asarray(res[f], dtype=float) for f in ("time", *fields)}
 
 
-def run_jobs(jobs, fmu_dir=DEFAULT_OUT, workers: int = 2, scheduler=None) -> list:
+def run_jobs(jobs, fmu_dir=DEFAULT_OUT, workers: int = 2, scheduler=None, as_published: bool = False) -> list:
     """Run ``(scenario, estimators, overrides, params, fields[, duration[, options]])`` jobs in parallel.
 
     ``options`` are more keyword arguments of :func:`run_scenario` (``controller``,
-    ``control_source``).  The FMUs are built (if out of date) before the workers start.
+    ``control_source``).  The FMUs are built (if out of date) before the workers start.  ``as_published``
+    gives every estimator that has it ``consistency_check = false`` (a job's own ``params`` win): its
+    ``valid`` is the method's own, as the papers' tables score it
+    (:class:`~sideslip.estimators.profiles.ProfiledEstimator`).
 
     Returns
     -------
@@ -132,9 +135,24 @@ def run_jobs(jobs, fmu_dir=DEFAULT_OUT, workers: int = 2, scheduler=None) -> lis
     names = {inst_fmu[1] for job in jobs for inst_fmu in estimator_instances(job[1])} | {PLANT, SENSORS, DRIVER}
     names |= {job[6]["controller"] for job in jobs if len(job) > 6 and job[6].get("controller")}
     ensure_fmus(sorted(names), fmu_dir)
+    if as_published:
+        jobs = [(*job[:3], {**_own_flags(job[1]), **(job[3] or {})}, *job[4:]) for job in jobs]
     args = [(*job[:5], str(fmu_dir), job[5] if len(job) > 5 else None, job[6] if len(job) > 6 else {})
             for job in jobs]
     return map_ordered(_job, args, workers, scheduler)
+
+
+def _own_flags(estimators) -> dict:
+    """``consistency_check = false`` for each estimator instance whose FMU has the parameter."""
+    from ..estimators import ESTIMATORS
+    from ..params import declared_fields
+
+    out = {}
+    for inst, fmu in estimator_instances(estimators):
+        cls = ESTIMATORS.get(fmu)
+        if cls is not None and "consistency_check" in {f.name for f, _ in declared_fields(cls.config_class)}:
+            out[f"{inst}.consistency_check"] = False
+    return out
 
 
 def run_library(scenario: str | Scenario, estimators=(), duration: float | None = None, step: float = 1e-3,

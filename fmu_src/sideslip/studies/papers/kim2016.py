@@ -43,7 +43,7 @@ def kim2016_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, extra_scenarios=()) 
     names = ["kim2016_track_40", "kim2016_track_80", *extra_scenarios]
     jobs = [(n, ("Kim2016SteeringEKF",), None, None, _KIM_FIELDS) for n in names]
     out = {}
-    for n, (metrics, arrays) in zip(names, run_jobs(jobs, fmu_dir, workers)):
+    for n, (metrics, arrays) in zip(names, run_jobs(jobs, fmu_dir, workers, as_published=True)):
         row = _kim_row(metrics, arrays)
         speed = int(n.rsplit("_", 1)[1]) if n.startswith("kim2016_track_") else None
         if speed in KIM2016_TABLE3:
@@ -90,7 +90,7 @@ def kim2016_fault_detection(fmu_dir=DEFAULT_OUT, workers: int = 2, faults=KIM_FA
                                             "sensor_steer_fault_offset": off}, None, fields, tf + horizon)
             for sc, mode, off, tf in faults]
     out = []
-    for (sc, mode, off, tf), (_, arr) in zip(faults, run_jobs(jobs, fmu_dir, workers)):
+    for (sc, mode, off, tf), (_, arr) in zip(faults, run_jobs(jobs, fmu_dir, workers, as_published=True)):
         t = arr["time"]
         flagged = np.nonzero(arr["Kim2016SteeringEKF.delta_fault"] > 0.5)[0]
         t_flag = float(t[flagged[0]]) if flagged.size else float("nan")

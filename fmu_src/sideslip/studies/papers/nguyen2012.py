@@ -47,7 +47,7 @@ def nguyen2012_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, params=None, bin_
     names = list(NGUYEN2012_TABLE3)
     out = {}
     for name, (metrics, arr) in zip(names, run_jobs([(n, ests, None, overrides, fields) for n in names],
-                                                    fmu_dir, workers)):
+                                                    fmu_dir, workers, as_published=True)):
         t = arr["time"]
         fixes = t[arr["sensors.gps_fresh"] > 0.5]
         last = np.searchsorted(fixes, t, side="right") - 1          # index of the last fix at or before t

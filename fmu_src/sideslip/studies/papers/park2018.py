@@ -45,7 +45,7 @@ def park2018_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, cases=(1, 2, 3, 4, 
     """
     jobs = [(f"park2018_case{c}", PARK_ESTIMATORS, None, params, ()) for c in cases]
     out = {}
-    for c, (metrics, _) in zip(cases, run_jobs(jobs, fmu_dir, workers)):
+    for c, (metrics, _) in zip(cases, run_jobs(jobs, fmu_dir, workers, as_published=True)):
         row = {label: {k: metrics["estimators"][inst][est][k] for k in ("rms", "max")}
                for label, inst, est in PARK_COLUMNS}
         row["paper"] = {"max": PARK2018_TABLE3[c][0], "rms": PARK2018_TABLE3[c][1]}
@@ -94,7 +94,7 @@ def park2018_gps_outage(fmu_dir=DEFAULT_OUT, scenario: str = "park2018_case3", w
     fields += ["plant.beta", "plant.vx", "plant.vy", "sensors.gps_valid"]
     jobs = [(scenario, ("Park2018Observer",), None, None, fields),
             (scenario, ("Park2018Observer",), {"sensor_gps_outages": f"{a:g}-{b:g}"}, None, fields)]
-    (_, nominal), (_, outage) = run_jobs(jobs, fmu_dir, workers)
+    (_, nominal), (_, outage) = run_jobs(jobs, fmu_dir, workers, as_published=True)
     t = outage["time"]
     during = (t >= a) & (t < b)
     out = {"scenario": scenario, "window": [a, b], "band_deg": band_deg,

@@ -32,7 +32,7 @@ def pi2011_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, params=None) -> dict:
     names = list(PI2011_TABLE4)
     ests = tuple(fmu for _, fmu in PI_COLUMNS)
     out = {}
-    for name, (metrics, _) in zip(names, run_jobs([(n, ests, None, params, ()) for n in names], fmu_dir, workers)):
+    for name, (metrics, _) in zip(names, run_jobs([(n, ests, None, params, ()) for n in names], fmu_dir, workers, as_published=True)):
         row = {}
         for label, fmu in PI_COLUMNS:
             b = metrics["estimators"][fmu]["beta_hat"]

@@ -42,7 +42,7 @@ def yoon2014_accuracy(fmu_dir=DEFAULT_OUT, workers: int = 2, scenarios=YOON_SCEN
     params = {f"{v}.{k}": val for v, over in YOON_VARIANTS.items() for k, val in over.items()}
     fields = ["plant.beta", "plant.vx", "plant.vy", *(f"{v}.{f}" for v in YOON_VARIANTS for f in ("beta_hat", "valid"))]
     jobs = [(sc, ests, YOON_DISTURBANCES[level] or None, params, fields) for level in disturbances for sc in scenarios]
-    results = iter(run_jobs(jobs, fmu_dir, workers))
+    results = iter(run_jobs(jobs, fmu_dir, workers, as_published=True))
     out = {}
     for level in disturbances:
         runs, pooled = {}, {v: [] for v in YOON_VARIANTS}
