@@ -203,9 +203,9 @@ def test_delayed_fixes_extrapolated_or_rerun_give_the_same_estimate(slalom):
 
 
 def test_the_delay_state_finds_a_receiver_delay_other_than_its_prior():
-    """A receiver 0.2 s late against the prior's 0.1 s, braking in a turn on snow: the course's changes never show
-    the delay sharply enough to the identifier apart from the filter, which keeps 0.1 s (measured: 0.34 deg RMS);
-    as a state of the filter it is found while the car turns (0.219 s, 0.19 deg)."""
+    """A receiver 0.2 s late against the prior's 0.1 s, braking in a turn on snow: the identifier apart from the filter
+    finds 0.26 s from the course's changes (measured: 0.285 deg RMS); as a state of the filter the delay is found
+    while the car turns (0.215 s, 0.228 deg)."""
     case = B.Case("bench_train_bit_sonata_snow", "sensors+mismatch", 0)
     s = B.setup(case)
     s.sensors["gps_delay"] = 0.2
@@ -213,7 +213,7 @@ def test_the_delay_state_finds_a_receiver_delay_other_than_its_prior():
     runs = [_run(s, rec, delay_state=on)[1] for on in (True, False)]
     state, apart = (B.row_metrics(rec, r["beta_hat"], r["beta_hat_std"], r["valid"]) for r in runs)
     assert runs[0]["gps_delay_hat"][-1] == pytest.approx(0.2, abs=0.04)
-    assert state["rms"] < 0.7 * apart["rms"] and state["coverage95"] > 0.95 and state["off_while_valid"] == 0.0
+    assert state["rms"] < 0.85 * apart["rms"] and state["coverage95"] > 0.95 and state["off_while_valid"] == 0.0
 
 
 @pytest.mark.slow
@@ -478,28 +478,31 @@ def circle_entry():
 
 @pytest.mark.slow
 def test_a_circle_entry_does_not_drive_the_offsets_and_the_delay(circle_entry):
-    """The entry into a circle at 0.8 g drove the GNSS delay state from 0.1 to 0.19 s and the accelerometer offset
-    0.9 m/s2 off, the estimate 2.5 deg off at the entry with valid true: the vehicle file's roll model (the base
-    car's) was 2.6 times stiffer than the car, and the roll's gravity it left in the accelerometer, which grows with
-    a_y, reads as an offset and as a sideslip error across the track, which reads as a delay.  The model cannot
-    tell them apart; the vehicle file can: ``identify`` writes the roll stiffness of the fitted roll gain
-    (``sideslip.studies.identify``), and with it the states stay where the sensors put them (measured: 0.61 deg
-    max, the offset -0.22 against -0.2, the delay 0.086-0.119 s from the entry on)."""
+    """The entry into a circle at 0.8 g with a vehicle file whose roll model is the base car's, 2.6 times stiffer
+    than the car's: the roll's gravity the model leaves in the accelerometer grows with a_y; taken for an offset and,
+    across the track, for a sideslip error, which reads as a delay, it drove the delay state from 0.1 to 0.17 s and the
+    accelerometer offset 0.9 m/s2 off, the estimate 2.0 deg off with valid true.  The roll gain the file misses is a
+    state of its own (``K_AY``, ``roll_gain_std0``): a steady circle cannot tell it from the offset, the entry and
+    the straight before it can, and the offset and the delay stay where the sensors put them (measured: 0.42 deg
+    max with GNSS, 0.26 without; the offset -0.07 against -0.2, the roll gain 0.095, the delay 0.083-0.118 s).  With the
+    identified file the roll gain stays near zero."""
     rec, car = circle_entry
     moving = rec.time > 2.0
     beta = rec.reference["beta"]
-    for values in ({}, {"use_gnss": False}):
-        res = replay(SideslipFusion(build(SideslipFusionConfig, values), vehicle=car), rec)
-        err = np.abs(res["beta_hat"] - beta)[moving]
-        assert err.max() < 1.0 * RAD_PER_DEG, values
-        # without GNSS only the tire model tells the offset: it stays within its prior std (measured -0.08)
-        assert abs(res["bias_ay_hat"][-1] + 0.2) < (0.1 if not values else 0.2), values
-        if not values:
-            delay = res["gps_delay_hat"][rec.time > 10.0]                    # from the entry on
-            assert 0.075 < delay.min() and delay.max() < 0.125
-    # the base car's roll model: the failure as it was
     base = load_vehicle("park2018_sonata")
     stiff = car.with_overrides({k: getattr(base, k) for k in ("K_phi_f", "K_phi_r", "C_phi_f", "C_phi_r")})
-    res = replay(SideslipFusion(SideslipFusionConfig(), vehicle=stiff), rec)
-    assert np.abs(res["beta_hat"] - beta)[moving].max() > 2.0 * RAD_PER_DEG
-    assert res["bias_ay_hat"][-1] > 0.4 and res["gps_delay_hat"].max() > 0.16
+    for vehicle, gain in ((car, 0.0), (stiff, 0.1)):
+        for values in ({}, {"use_gnss": False}):
+            res = replay(SideslipFusion(build(SideslipFusionConfig, values), vehicle=vehicle), rec)
+            err = np.abs(res["beta_hat"] - beta)[moving]
+            assert err.max() < 0.5 * RAD_PER_DEG, values
+            # without GNSS only the tire model tells the offset from the roll gain: within the offset's prior std
+            assert abs(res["bias_ay_hat"][-1] + 0.2) < (0.25 if values else 0.15), values
+            assert res["roll_gain_error_hat"][-1] == pytest.approx(gain, abs=0.04), values
+            if not values:
+                delay = res["gps_delay_hat"][rec.time > 10.0]                    # from the entry on
+                assert 0.075 < delay.min() and delay.max() < 0.125
+    # without the roll gain's state (the roll model taken as exact): the failure as it was
+    res = replay(SideslipFusion(build(SideslipFusionConfig, {"roll_gain_std0": 0.0}), vehicle=stiff), rec)
+    assert np.abs(res["beta_hat"] - beta)[moving].max() > 1.5 * RAD_PER_DEG
+    assert res["bias_ay_hat"][-1] > 0.4 and res["gps_delay_hat"].max() > 0.15

@@ -177,6 +177,8 @@ _ENTRIES = [
           "(lateral force over friction times load)", 0.0, 1.0),
     _real("slide_probability", "Dimensionless", "Probability of the IMM's slide filter (0 for a single EKF)",
           0.0, 1.0),
+    _real("roll_gain_error_hat", "Dimensionless", "Estimated roll gravity in the lateral accelerometer beyond the "
+          "vehicle file's roll model, per unit of lateral acceleration", -1.0, 1.0),
     _real("nonlinear_factor", "Dimensionless", "Fuzzy nonlinear factor (0: linear tires, 1: at the limit)",
           0.0, 1.0),
     _real("Fyf_hat", "Force", "Estimated front-axle lateral force", -1.0e5, 1.0e5),

@@ -34,12 +34,19 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
                                     "0.1 deg/s per 100 s, an automotive-grade gyro's drift)", gt=0, le=1)
     accel_offset_std0: float = param(0.2, "Acceleration", "Initial uncertainty of the accelerometer offsets",
                                      gt=0, le=10)
-    accel_offset_walk: float = param(0.01, "Acceleration", "Random walk of the accelerometer offsets (the "
-                                     "longitudinal one with the road grade) per sqrt(s)", gt=0, le=10)
+    accel_offset_walk: float = param(0.02, "Acceleration", "Random walk of the accelerometer offsets per sqrt(s): "
+                                     "the sensor's drift and what a real road's changing grade and crossfall add "
+                                     "(0.02: chosen on the training set's real drive and plants)", gt=0, le=10)
     bank_std0: float = param(0.3, "Acceleration", "Initial uncertainty of the road bank's gravity term g sin(bank) in "
                              "the lateral accelerometer (0.3: about 1.8 degrees)", gt=0, le=10)
     bank_walk: float = param(0.003, "Acceleration", "Random walk of the road bank's gravity term per sqrt(s)",
                              gt=0, le=10)
+    roll_gain_std0: float = param(0.05, "Dimensionless", "Initial uncertainty of the roll's gravity in the lateral "
+                                  "accelerometer that the vehicle file's roll model misses, per unit of lateral "
+                                  "acceleration (0.05: a roll gradient off by 3 deg/g; 0: the roll model taken as "
+                                  "exact)", ge=0, le=0.5)
+    roll_gain_walk: float = param(1e-3, "Dimensionless", "Random walk of that roll gain per sqrt(s) (the load "
+                                  "changes)", gt=0, le=1)
     steer_offset_std0: float = param(0.005, "Angle", "Initial uncertainty of the steering offset", gt=0, le=0.5)
     radius_error_std0: float = param(0.02, "Dimensionless", "Initial uncertainty of the rolling-radius error",
                                      gt=0, le=0.5)

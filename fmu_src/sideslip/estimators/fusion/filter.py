@@ -22,7 +22,8 @@ from .tire_model import axle_stiffness
 __all__ = ["SideslipFusion"]
 
 # plain-int copies of the indices: indexing with an IntEnum member costs four times more
-_VX, _VY, _PSI, _B_R, _B_AX, _B_AY, _D_DELTA, _LN_CF, _LN_CR, _LN_MU, _E_W, _G_Y, _D_GNSS, _B_MAG = (int(s) for s in Fs)
+_VX, _VY, _PSI, _B_R, _B_AX, _B_AY, _D_DELTA, _LN_CF, _LN_CR, _LN_MU, _E_W, _G_Y, _K_AY, _D_GNSS, _B_MAG = (
+    int(s) for s in Fs)
 _ONE = np.array([1.0])
 """The EKF's mode probabilities."""
 
@@ -35,7 +36,7 @@ class SideslipFusion(Estimator):
     input_names = ("ax_m", "ay_m", "yaw_rate_m", "delta_m", *WHEEL_SPEEDS_M, "gps_ve", "gps_vn", "gps_fresh",
                    "gps_valid", "mag_x", "mag_y", "mag_z")
     extra_outputs = ("yaw_hat", "bias_yaw_rate_hat", "bias_ax_hat", "bias_ay_hat", "steer_offset_hat", "Cf_hat",
-                     "Cr_hat", "mu_hat", "friction_utilisation", "gps_delay_hat", "slide_probability")
+                     "Cr_hat", "mu_hat", "friction_utilisation", "gps_delay_hat", "slide_probability", "roll_gain_error_hat")
     needs = ("the vehicle's geometry and mass roughly right; GNSS velocity for the best accuracy (without it the "
              "tire model, calibrated while GNSS was there, carries the estimate)")
     In = input_enum("In", input_names)
@@ -225,7 +226,7 @@ class SideslipFusion(Estimator):
                 m.kf.P[Fs.VY, Fs.VY] = (0.05 * vw) ** 2
             self._started = True
         inp = self._conditioner(u[I.AX_M], u[I.AY_M], u[I.YAW_RATE_M], u[I.DELTA_M], vw, self._x[_B_AX],
-                                self._x[_B_AY])
+                                self._x[_B_AY], self._x[_K_AY])
         self._model.ln_mu_floor = self._conditioner.ln_mu_floor
         if self._acc_line is not None:
             self._acc_line.push(inp[:2])
@@ -284,7 +285,7 @@ class SideslipFusion(Estimator):
         utilisation = sum(p * m.utilisation for p, m in zip(prob, self._modes))
         return (math.remainder(float(x[_PSI]), 2.0 * math.pi), float(x[_B_R]), float(x[_B_AX]),
                 float(x[_B_AY]), float(x[_D_DELTA]), c_f, c_r, mu, min(float(utilisation), 1.0),
-                self._delay(), float(prob[1]) if len(prob) > 1 else 0.0)
+                self._delay(), float(prob[1]) if len(prob) > 1 else 0.0, float(x[_K_AY]))
 
     def _pack(self) -> tuple:
         return self._gate(self, super()._pack())

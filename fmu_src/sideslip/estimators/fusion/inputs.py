@@ -18,7 +18,8 @@ class InputConditioner:
 
     The lateral acceleration is roll-compensated with the vehicle's roll model (:attr:`roll`); the axle forces
     come from the force and moment balances (:func:`~sideslip.bicycle.axle_forces`) of the lateral acceleration
-    less the accelerometer's offset and of the low-passed yaw acceleration; the axle loads carry the longitudinal
+    less the accelerometer's offset and the roll's gravity the roll model misses (the filter's ``k_ay``) and of
+    the low-passed yaw acceleration; the axle loads carry the longitudinal
     load transfer; the axles' longitudinal forces are ``m a_x`` split by the vehicle file's drive or brake split
     (drag and rolling resistance neglected; zero without ``combined_slip``).  It also keeps the friction's floor:
     the road carries at least what the car is measured to do, ``mu >= 0.9 |a| / g`` of the low-passed horizontal
@@ -52,11 +53,14 @@ class InputConditioner:
         self._r_dot = self._accel = 0.0
         self.ln_mu_floor = math.log(mu_min)
 
-    def __call__(self, ax: float, ay_m: float, r_m: float, delta: float, v_wheel: float, b_ax, b_ay) -> SampleInputs:
+    def __call__(self, ax: float, ay_m: float, r_m: float, delta: float, v_wheel: float, b_ax, b_ay,
+                 k_ay: float = 0.0) -> SampleInputs:
         """The inputs of a sample with the measured accelerations [m/s2], yaw rate [rad/s], road-wheel angle [rad] and
-        undriven-wheel speed [m/s], and the filter's accelerometer offsets ``b_ax``, ``b_ay`` [m/s2]."""
+        undriven-wheel speed [m/s], and the filter's accelerometer offsets ``b_ax``, ``b_ay`` [m/s2] and roll gain
+        ``k_ay``."""
         v, ts = self.vehicle, self.ts
         ay = self.roll(ay_m)
+        b_ay = b_ay + k_ay * ay                     # what is not the tires' force: the offset and the roll's gravity
         if self._r_prev is not None:
             self._r_dot = lowpass(self._r_dot, (r_m - self._r_prev) / ts, ts, self._cutoff)
         self._r_prev = r_m

@@ -14,7 +14,13 @@ from typing import Mapping, NamedTuple
 
 import numpy as np
 
-__all__ = ["Fs", "state_size", "per_state", "InitialState", "initial_state"]
+__all__ = ["Fs", "state_size", "per_state", "InitialState", "initial_state", "ROLL_GAIN_MAX"]
+
+ROLL_GAIN_MAX = 0.5
+"""Bound of ``K_AY``: the roll's gravity is a fraction of the lateral acceleration (0.05-0.2 for a car)."""
+ROLL_GAIN_OFF = 1e-6
+"""The std of ``K_AY`` with ``roll_gain_std0 = 0`` (and no process noise): held at zero, yet the covariance stays
+positive definite (a fix is applied only to a positive-definite covariance)."""
 
 
 class Fs(IntEnum):
@@ -24,10 +30,12 @@ class Fs(IntEnum):
     ``B_AX``, ``B_AY`` accelerometer offsets [m/s2]; ``D_DELTA`` steering offset [rad]; ``LN_CF``,
     ``LN_CR`` log cornering-stiffness scales of the axles; ``LN_MU`` log friction; ``E_W`` rolling-radius
     error; ``G_Y`` the road bank's gravity term ``g sin(bank)`` in the lateral accelerometer [m/s2],
-    which moves the car but is not a tire force (``B_AY``, the sensor's offset, is in both); ``D_GNSS``
-    the GNSS delay [s]; ``B_MAG`` the magnetometer's heading offset [rad] (a declination or iron error).
+    which moves the car but is not a tire force (``B_AY``, the sensor's offset, is in both); ``K_AY`` the roll's
+    gravity in the lateral accelerometer that the vehicle file's roll model misses, per unit of lateral
+    acceleration (a roll gradient off, a log in a level frame: in both, like the offset); ``D_GNSS`` the GNSS delay
+    [s]; ``B_MAG`` the magnetometer's heading offset [rad] (a declination or iron error).
     """
-    VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W, G_Y, D_GNSS, B_MAG = range(14)
+    VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W, G_Y, K_AY, D_GNSS, B_MAG = range(15)
 
 
 def state_size(delay_state: bool, use_magnetometer: bool) -> int:
@@ -72,7 +80,8 @@ def initial_state(cfg) -> InitialState:
     p0 = per_state({Fs.VX: 1.0, Fs.VY: 1.0, Fs.PSI: 10.0, Fs.B_R: cfg.gyro_offset_std0,
                     Fs.B_AX: cfg.accel_offset_std0, Fs.B_AY: cfg.accel_offset_std0, Fs.D_DELTA: cfg.steer_offset_std0,
                     Fs.LN_CF: cfg.stiffness_std0, Fs.LN_CR: cfg.stiffness_std0, Fs.LN_MU: cfg.mu_std0,
-                    Fs.E_W: cfg.radius_error_std0, Fs.G_Y: cfg.bank_std0, Fs.D_GNSS: cfg.gps_latency_std,
+                    Fs.E_W: cfg.radius_error_std0, Fs.G_Y: cfg.bank_std0, Fs.K_AY: max(cfg.roll_gain_std0, ROLL_GAIN_OFF),
+                    Fs.D_GNSS: cfg.gps_latency_std,
                     Fs.B_MAG: cfg.mag_offset_std0}, n) ** 2
     p_cap = p0.copy()
     p_cap[[Fs.VX, Fs.VY, Fs.PSI]] = np.inf
@@ -82,11 +91,13 @@ def initial_state(cfg) -> InitialState:
                    Fs.B_AY: cfg.accel_offset_walk * walk, Fs.D_DELTA: 1e-6 * walk,
                    Fs.LN_CF: cfg.stiffness_walk * walk, Fs.LN_CR: cfg.stiffness_walk * walk,
                    Fs.LN_MU: cfg.mu_walk * walk, Fs.E_W: 1e-5 * walk, Fs.G_Y: cfg.bank_walk * walk,
+                   Fs.K_AY: cfg.roll_gain_walk * walk if cfg.roll_gain_std0 > 0.0 else 0.0,
                    Fs.D_GNSS: cfg.delay_walk * walk if cfg.delay_state else 0.0,
                    Fs.B_MAG: cfg.mag_offset_walk * walk}, n) ** 2
     bounds = ((int(Fs.LN_CF), math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
               (int(Fs.LN_CR), math.log(cfg.stiffness_min), math.log(cfg.stiffness_max)),
-              (int(Fs.LN_MU), math.log(cfg.mu_min), math.log(cfg.mu_max)))
+              (int(Fs.LN_MU), math.log(cfg.mu_min), math.log(cfg.mu_max)),
+              (int(Fs.K_AY), -ROLL_GAIN_MAX, ROLL_GAIN_MAX))
     if cfg.delay_state:          # bounded by the history kept for the delayed fixes
         bounds += ((int(Fs.D_GNSS), 0.0, int(math.ceil(cfg.max_delay / ts)) * ts),)
     return InitialState(x0, p0, q, p_cap, bounds)
