@@ -8,6 +8,16 @@
   Kalman gain plays the role of the Luenberger gain ``G`` and gives ``beta_hat_std``).
   Accurate in the linear range with the right cornering stiffness, wrong beyond it.
 
+What each says of itself goes beyond the paper, which gives estimates only; the estimates are the paper's.
+``beta_hat_std`` is truthful: the open-loop integration's grows with the sensor offsets it cannot remove
+(``ay_offset_std``, ``yaw_rate_offset_std``), the bicycle filter's adds the vehicle file's stiffness error
+(``stiffness_error`` times the rear slip angle) and is inflated by the consistency of its yaw-rate innovations
+(:class:`~sideslip.estimators.kalman.InnovationMonitor`: beyond the tires' linear range the measured yaw rate
+leaves the model's).  ``valid`` is false while the bicycle filter's innovations are inconsistent (``nis_limit``),
+above ``valid_std_max`` of std and for ``valid_hold`` after any break
+(:class:`~sideslip.estimators.base.ValidityGate`); the open-loop integration is valid only until its offsets' share
+of the std reaches ``valid_std_max``.
+
 Both take the speed from the undriven wheels and the front road-wheel angle from the
 steering sensor.
 """
@@ -24,9 +34,10 @@ from ..bicycle import BicycleModel
 from ..constants import GRAVITY
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
-from .base import Estimator, EstimatorConfig, input_enum
+from .base import (Estimator, EstimatorConfig, ValidityGate, input_enum, nis_limit_param, valid_hold_param,
+                   valid_std_max_param)
 from .discrete import SpeedCache
-from .kalman import KalmanFilter
+from .kalman import InnovationMonitor, KalmanFilter
 
 __all__ = ["OpenLoopKinematic", "OpenLoopConfig", "LinearBicycleObserver", "BicycleObserverConfig"]
 
@@ -40,12 +51,20 @@ class OpenLoopConfig(EstimatorConfig):
     bank: float = param(0.0, "Angle", "Road bank angle assumed in eq 22", ge=-0.5, le=0.5)
     ay_sigma: float = param(0.05, "Acceleration", "Lateral-acceleration noise for the error growth", ge=0, le=10)
     yaw_rate_sigma: float = param(0.002, "AngularVelocity", "Yaw-rate noise for the error growth", ge=0, le=1)
+    ay_offset_std: float = param(0.3, "Acceleration", "Uncertainty of the lateral accelerometer's offset and a road's "
+                                 "crossfall, for the error growth (0.3: an automotive offset and 2 % crossfall; 0: "
+                                 "offset-free on a level road)", ge=0, le=10)
+    yaw_rate_offset_std: float = param(0.005, "AngularVelocity", "Uncertainty of the gyro's offset, for the error "
+                                       "growth (0: offset-free)", ge=0, le=1)
+    valid_std_max: float = valid_std_max_param()
 
 
 class OpenLoopKinematic(Estimator):
     """Pi 2011 eq 22: ``beta = int((a_y + g phi_r) / v_x - r) dt``.
 
-    ``beta_hat_std`` grows as the integrated sensor noise (a random walk); bias is not in it.
+    ``beta_hat_std`` grows as the integrated sensor noise (a random walk) and, linearly, with the offsets it
+    integrates (``ay_offset_std / v_x`` and ``yaw_rate_offset_std`` per second); ``valid`` is false once it exceeds
+    ``valid_std_max``.
     """
 
     config_class = OpenLoopConfig
@@ -54,7 +73,7 @@ class OpenLoopKinematic(Estimator):
     In = input_enum("In", input_names)
 
     def _init_filter(self):
-        self._var = 0.0
+        self._var = self._drift_ay = self._drift_r = 0.0
 
     def _sample(self, u):
         I, cfg, ts = self.In, self.config, self.Ts
@@ -67,9 +86,11 @@ class OpenLoopKinematic(Estimator):
         self.beta += ts * ((u[I.AY_M] + GRAVITY * math.sin(cfg.bank)) / vx - r)   # Pi 2011 eq 22
         self.beta = math.remainder(self.beta, 2.0 * math.pi)
         self._var += ts * ts * ((cfg.ay_sigma / vx) ** 2 + cfg.yaw_rate_sigma ** 2)
-        self.beta_std = math.sqrt(self._var)
+        self._drift_ay += ts * cfg.ay_offset_std / vx          # a constant offset's error grows, it does not average
+        self._drift_r += ts * cfg.yaw_rate_offset_std
+        self.beta_std = math.sqrt(self._var + self._drift_ay ** 2 + self._drift_r ** 2)
         self.vy = vx * math.tan(self.beta) if abs(self.beta) < 1.5 else 0.0
-        self.valid = True
+        self.valid = self.beta_std <= cfg.valid_std_max
 
 
 # ------------------------------------------------------------------------------ linear bicycle
@@ -82,6 +103,15 @@ class BicycleObserverConfig(EstimatorConfig):
     q_beta: float = param(1e-6, "AngleVariance", "Process noise of beta per sample", gt=0, le=1)
     q_r: float = param(1e-5, "AngularVelocityVariance", "Process noise of the yaw rate per sample", gt=0, le=1)
     r_yaw: float = param(2.5e-5, "AngularVelocityVariance", "Yaw-rate measurement noise variance", gt=0, le=1)
+    model_check: bool = param(True, "Dimensionless", "beta_hat_std with the stiffness error and inflated by the "
+                              "yaw-rate innovations' consistency, valid false while they are inconsistent or above "
+                              "valid_std_max (false: the filter's covariance, valid whenever moving, as the paper's "
+                              "baseline)")
+    stiffness_error: float = param(0.3, "Dimensionless", "Relative error of the vehicle file's cornering stiffness "
+                                   "in the reported std (model_check)", ge=0, le=2)
+    nis_limit: float = nis_limit_param(10.0)
+    valid_std_max: float = valid_std_max_param()
+    valid_hold: float = valid_hold_param()
 
 
 def _steering_model(model: BicycleModel, vx: float) -> tuple[np.ndarray, np.ndarray]:
@@ -110,6 +140,8 @@ class LinearBicycleObserver(Estimator):
         self.kf = KalmanFilter([0.0, 0.0], np.diag([1e-4, 1e-4]))
         self._Q = np.diag([cfg.q_beta, cfg.q_r])
         self._r_yaw = cfg.r_yaw
+        self._nis = InnovationMonitor(max(1, int(round(1.0 / self.Ts))), cfg.nis_limit) if cfg.model_check else None
+        self._gate = ValidityGate(cfg.valid_std_max, cfg.valid_hold) if cfg.model_check else None
 
     def _sample(self, u):
         I = self.In
@@ -127,8 +159,14 @@ class LinearBicycleObserver(Estimator):
         F, FG = self._matrices(vx)              # Pi 2011 eq 20 (sideslip / yaw-rate form), zero-order hold
         kf = self.kf
         kf.predict(FG.dot((kf.x[Lin.BETA], kf.x[Lin.R], delta)), F, self._Q)
-        kf.update_state(Lin.R, r_m - kf.x[Lin.R], self._r_yaw)
+        nis = kf.update_state(Lin.R, r_m - kf.x[Lin.R], self._r_yaw)
         self.beta, self.yaw_rate = kf.x.tolist()
         self.beta_std = kf.std(Lin.BETA)
         self.vy = vx * math.tan(self.beta)
         self.valid = True
+        if self._nis is not None:                  # what the filter cannot know of its model (module docstring)
+            self._nis.add(nis)
+            alpha_r = self.vehicle.l_r * self.yaw_rate / vx - self.beta          # the rear slip angle
+            self.beta_std = math.hypot(self.beta_std * self._nis.inflation(),
+                                       self.config.stiffness_error * abs(alpha_r))
+            self.valid = self._nis.consistent

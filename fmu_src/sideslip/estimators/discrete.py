@@ -9,12 +9,19 @@ costs ~25 us, more than a filter sample; :class:`SpeedCache` keeps the discrete 
 """
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import numpy as np
 from scipy.linalg import expm
 
-__all__ = ["zoh", "euler", "SpeedCache"]
+__all__ = ["zoh", "euler", "SpeedCache", "lowpass"]
+
+
+def lowpass(prev: float, value: float, ts: float, cutoff: float) -> float:
+    """One step of a first-order low-pass filter (exact discretisation; ``cutoff`` in Hz)."""
+    a = math.exp(-2.0 * math.pi * cutoff * ts)
+    return a * prev + (1.0 - a) * value
 
 
 def zoh(A: np.ndarray, B: np.ndarray, ts: float) -> tuple[np.ndarray, np.ndarray]:

@@ -72,7 +72,8 @@ from ..constants import GRAVITY
 from ..params import param
 from ..signals import WHEEL_SPEEDS_M
 from ..units import wrap_angle
-from .base import beta_std, input_enum, lowpass
+from .base import beta_std, input_enum
+from .discrete import lowpass
 from .delay import CourseDelay, DelayLine
 from .kalman import InnovationMonitor, KalmanFilter
 from .model_trust import LinearTireConfig, ModelTrust

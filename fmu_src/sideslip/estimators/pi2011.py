@@ -79,7 +79,8 @@ import numpy as np
 from ..bicycle import BicycleModel, axle_forces
 from ..params import ParameterError, check, param
 from ..signals import WHEEL_SPEEDS_M
-from .base import input_enum, lowpass
+from .base import input_enum
+from .discrete import lowpass
 from .fuzzy import Mamdani, Trapezoid
 from .kalman import InnovationMonitor, KalmanFilter
 from .model_trust import LinearTireConfig, ModelTrust

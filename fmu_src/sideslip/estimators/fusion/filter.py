@@ -286,6 +286,3 @@ class SideslipFusion(Estimator):
         return (math.remainder(float(x[_PSI]), 2.0 * math.pi), float(x[_B_R]), float(x[_B_AX]),
                 float(x[_B_AY]), float(x[_D_DELTA]), c_f, c_r, mu, min(float(utilisation), 1.0),
                 self._delay(), float(prob[1]) if len(prob) > 1 else 0.0, float(x[_K_AY]))
-
-    def _pack(self) -> tuple:
-        return self._gate(self, super()._pack())

@@ -6,7 +6,7 @@ import math
 from ...bicycle import axle_forces
 from ...constants import GRAVITY
 from ...vehicles import VehicleParams
-from ..base import lowpass
+from ..discrete import lowpass
 from ..roll import RollCompensator
 from .models import SampleInputs
 
