@@ -328,7 +328,8 @@ def row_metrics(rec: Recording, beta_hat, std, valid) -> dict:
     std = np.asarray(std) * DEG
     out = {"valid": valid_share(valid, moving),
            "time_to_valid": float(t[np.argmax(ok)] - t[np.argmax(moving)]) if ok.any() else float("nan"),
-           "max_abs_beta": float(np.abs(beta[moving]).max() * DEG) if moving.any() else 0.0}
+           "max_abs_beta": float(np.abs(beta[moving]).max() * DEG) if moving.any() else 0.0,
+           "moving_s": float(moving.sum() * dt)}
     nan = float("nan")
     if not moving.any():
         return {**out, **dict.fromkeys(("rms", "max", "zero_rms", "rms_valid", "zero_rms_valid", "std_ratio", "nees",

@@ -35,13 +35,32 @@ def group(result: dict) -> str:
     return result["condition"] if plant == "own" else f"{result['condition']} on {plant}"
 
 
+KNOWS = 0.8
+"""Share of the samples where a row is worse than predicting zero that it must call not valid, on a case where it does
+not beat predict-zero, to count as knowing it."""
+
+
+def _pooled_ratio(metrics: list[dict]) -> float:
+    """RMS error over RMS reported std over every moving sample of the cases (each case's RMS figures weighed by its
+    moving time)."""
+    num = den = 0.0
+    for m in metrics:
+        ratio, n = m.get("std_ratio", float("nan")), m.get("moving_s", 1.0)
+        if not (math.isfinite(ratio) and ratio > 0.0 and math.isfinite(m["rms"])):
+            continue
+        num += n * m["rms"] ** 2
+        den += n * (m["rms"] / ratio) ** 2
+    return math.sqrt(num / den) if den > 0.0 else float("nan")
+
+
 def summarise(results: list[dict]) -> dict:
     """``{condition: {"scenarios": [...], "rows": {label: {"per_scenario": {scenario: {field: mean,
     "rms_min", "rms_max"}}, "mean_rms", "beats_zero", "cases_beta_1deg", "std_ratio", "coverage95",
     "worst_off_while_valid", "total_off_while_valid", "valid"}}}}`` per :func:`group`: means over seeds;
     ``beats_zero`` counts the scenarios with a true sideslip of at least 1 deg where the row's mean RMS is below
     predict-zero's on the same samples, ``beats_zero_05`` the same over the cases (seeds apart) with a peak of
-    0.5 deg or more."""
+    0.5 deg or more, ``knows_05`` those of the rest where the row calls at least :data:`KNOWS` of the samples where it
+    is worse than zero not valid, ``std_ratio_pooled`` RMS error over RMS std over every case (:func:`_pooled_ratio`)."""
     out: dict = {}
     for r in results:
         cond = out.setdefault(group(r), {"scenarios": [], "rows": {}, "mu_min": {}})
@@ -56,9 +75,12 @@ def summarise(results: list[dict]) -> dict:
             per = {}
             every = [m for ms in row["per_scenario"].values() for m in ms]
             big = [m for m in every if m["max_abs_beta"] >= 0.5]
-            row.update(beats_zero_05=sum(1 for m in big if m["rms"] < m["zero_rms"]), cases_beta_05=len(big),
+            lost = [m for m in big if m["rms"] >= m["zero_rms"]]
+            row.update(beats_zero_05=len(big) - len(lost), cases_beta_05=len(big),
+                       knows_05=sum(1 for m in lost if m.get("not_valid_when_worse", 0.0) >= KNOWS),
                        total_off_while_valid=float(sum(m["off_while_valid"] for m in every)),
-                       not_valid_when_worse=_nanmean([m.get("not_valid_when_worse", float("nan")) for m in every]))
+                       not_valid_when_worse=_nanmean([m.get("not_valid_when_worse", float("nan")) for m in every]),
+                       std_ratio_pooled=_pooled_ratio(every))
             for sc, ms in row["per_scenario"].items():
                 rms = [m["rms"] for m in ms]
                 per[sc] = {f: _nanmean([m.get(f, float("nan")) for m in ms]) for f in _FIELDS}
@@ -88,12 +110,14 @@ def leaderboard_markdown(summary: dict, title: str = "") -> str:
                   "Sideslip RMS error [deg] over every sample the car moves (valid or not), mean over seeds "
                   "(min-max); the true sideslip's peak and the road's lowest friction under each scenario.  "
                   "*beats predict-zero*: scenarios with a peak of 1 deg or more where the mean RMS is below "
-                  "predict-zero's; *RMS err / RMS std* and *within 1.96 std*: the consistency of beta_hat_std "
-                  "(1 and 95 % when consistent); *valid*: share of moving samples; *longest > 3 deg while valid*: "
-                  "the worst case's longest stretch.", "",
+                  "predict-zero's; *cases beating it*: the same per case (seeds apart) with a peak of 0.5 deg or more, "
+                  "and of the others those where the row calls 80 % or more of the samples where it is worse than "
+                  "zero not valid (*knows*); *RMS err / RMS std* (over every case's moving samples) and *within 1.96 "
+                  "std*: the consistency of beta_hat_std (1 and 95 % when consistent); *valid*: share of moving "
+                  "samples; *longest > 3 deg while valid*: the worst case's longest stretch, and their sum.", "",
                   "| estimator | " + " | ".join(short) + " | mean | beats predict-zero | cases beating it (peak >= "
-                  "0.5 deg) | RMS err / RMS std | within 1.96 std | valid | not valid where worse than zero | longest "
-                  "> 3 deg while valid [s] | summed [s] |",
+                  "0.5 deg) / knows | RMS err / RMS std | within 1.96 std | valid | not valid where worse than zero "
+                  "| longest > 3 deg while valid [s] | summed [s] |",
                   "|---|" + "---:|" * (len(scenarios) + 10)]
         first = next(iter(data["rows"].values()))["per_scenario"]
         lines.append("| *peak beta [deg], mu* | " + " | ".join(
@@ -107,8 +131,9 @@ def leaderboard_markdown(summary: dict, title: str = "") -> str:
                 cells.append(f"{v['rms']:.2f}{spread}")
             lines.append(f"| {label} | " + " | ".join(cells) +
                          f" | **{row['mean_rms']:.2f}** | {row['beats_zero']} of {row['cases_beta_1deg']} | "
-                         f"{row['beats_zero_05']} of {row['cases_beta_05']} | "
-                         f"{row['std_ratio']:.2f} | {100 * row['coverage95']:.0f} % | {100 * row['valid']:.0f} % | "
+                         f"{row['beats_zero_05']} of {row['cases_beta_05']} / "
+                         f"{row['knows_05']} of {row['cases_beta_05'] - row['beats_zero_05']} | "
+                         f"{row['std_ratio_pooled']:.2f} | {100 * row['coverage95']:.0f} % | {100 * row['valid']:.0f} % | "
                          f"{_percent(row['not_valid_when_worse'])} | "
                          f"{row['worst_off_while_valid']:.1f} | {row['total_off_while_valid']:.1f} |")
     return "\n".join(lines).lstrip() + "\n"
