@@ -235,12 +235,14 @@ def test_kinematic_check_passes_offsets_and_a_bank_and_sees_a_slide_the_estimate
 @pytest.mark.slow
 def test_kinematic_check_makes_a_linear_tire_estimate_not_valid_in_a_balanced_slide():
     """Kim 2016 on the test set's friction drop: with the check its estimate is never valid while more than
-    3 deg off for more than 0.5 s; without it, it is (sideslip.estimators.model_trust)."""
+    3 deg off for more than 0.5 s; without it (and without the consistency monitor, which watches the kinematics
+    too), it is (sideslip.estimators.model_trust)."""
     case = bm.Case("bench_changing_mu_sonata", "sensors+mismatch", 0)
     s, rec = bm.setup(case), bm.simulate(case)
     longest = {}
     for check in (True, False):
-        row = bm.Row("k", "Kim2016SteeringEKF", (("profile", 1), ("kinematic_check", check)))
+        row = bm.Row("k", "Kim2016SteeringEKF", (("profile", 1), ("kinematic_check", check),
+                                                ("consistency_check", check)))
         res = replay(bm.make_estimator(row, s), rec)
         longest[check] = bm.row_metrics(rec, res["beta_hat"], res["beta_hat_std"], res["valid"])["off_while_valid"]
     assert longest[True] <= 0.5 < longest[False]

@@ -15,8 +15,10 @@ What each says of itself goes beyond the paper, which gives estimates only; the 
 (:class:`~sideslip.estimators.kalman.InnovationMonitor`: beyond the tires' linear range the measured yaw rate
 leaves the model's).  ``valid`` is false while the bicycle filter's innovations are inconsistent (``nis_limit``),
 above ``valid_std_max`` of std and for ``valid_hold`` after any break
-(:class:`~sideslip.estimators.base.ValidityGate`); the open-loop integration is valid only until its offsets' share
-of the std reaches ``valid_std_max``.
+(:class:`~sideslip.estimators.base.ValidityGate`); the open-loop integration is valid only until its std reaches
+``valid_std_max``.  Neither has the inputs of the consistency check of the other estimators
+(:class:`~sideslip.estimators.model_checks.ModelConsistency`); ``consistency_check = false`` gives the paper's
+baselines as they were: the filter's covariance as the std and valid whenever moving.
 
 Both take the speed from the undriven wheels and the front road-wheel angle from the
 steering sensor.
@@ -64,7 +66,7 @@ class OpenLoopKinematic(Estimator):
 
     ``beta_hat_std`` grows as the integrated sensor noise (a random walk) and, linearly, with the offsets it
     integrates (``ay_offset_std / v_x`` and ``yaw_rate_offset_std`` per second); ``valid`` is false once it exceeds
-    ``valid_std_max``.
+    ``valid_std_max`` (always, with ``consistency_check`` false).
     """
 
     config_class = OpenLoopConfig
@@ -90,7 +92,7 @@ class OpenLoopKinematic(Estimator):
         self._drift_r += ts * cfg.yaw_rate_offset_std
         self.beta_std = math.sqrt(self._var + self._drift_ay ** 2 + self._drift_r ** 2)
         self.vy = vx * math.tan(self.beta) if abs(self.beta) < 1.5 else 0.0
-        self.valid = self.beta_std <= cfg.valid_std_max
+        self.valid = self.beta_std <= cfg.valid_std_max or not cfg.consistency_check
 
 
 # ------------------------------------------------------------------------------ linear bicycle
@@ -103,12 +105,8 @@ class BicycleObserverConfig(EstimatorConfig):
     q_beta: float = param(1e-6, "AngleVariance", "Process noise of beta per sample", gt=0, le=1)
     q_r: float = param(1e-5, "AngularVelocityVariance", "Process noise of the yaw rate per sample", gt=0, le=1)
     r_yaw: float = param(2.5e-5, "AngularVelocityVariance", "Yaw-rate measurement noise variance", gt=0, le=1)
-    model_check: bool = param(True, "Dimensionless", "beta_hat_std with the stiffness error and inflated by the "
-                              "yaw-rate innovations' consistency, valid false while they are inconsistent or above "
-                              "valid_std_max (false: the filter's covariance, valid whenever moving, as the paper's "
-                              "baseline)")
     stiffness_error: float = param(0.3, "Dimensionless", "Relative error of the vehicle file's cornering stiffness "
-                                   "in the reported std (model_check)", ge=0, le=2)
+                                   "in the reported std (consistency_check)", ge=0, le=2)
     nis_limit: float = nis_limit_param(10.0)
     valid_std_max: float = valid_std_max_param()
     valid_hold: float = valid_hold_param()
@@ -140,8 +138,9 @@ class LinearBicycleObserver(Estimator):
         self.kf = KalmanFilter([0.0, 0.0], np.diag([1e-4, 1e-4]))
         self._Q = np.diag([cfg.q_beta, cfg.q_r])
         self._r_yaw = cfg.r_yaw
-        self._nis = InnovationMonitor(max(1, int(round(1.0 / self.Ts))), cfg.nis_limit) if cfg.model_check else None
-        self._gate = ValidityGate(cfg.valid_std_max, cfg.valid_hold) if cfg.model_check else None
+        checked = cfg.consistency_check
+        self._nis = InnovationMonitor(max(1, int(round(1.0 / self.Ts))), cfg.nis_limit) if checked else None
+        self._gate = ValidityGate(cfg.valid_std_max, cfg.valid_hold) if checked else None
 
     def _sample(self, u):
         I = self.In

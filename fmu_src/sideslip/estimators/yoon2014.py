@@ -225,7 +225,7 @@ class Yoon2014DualKF(ProfiledEstimator):
         self.delay = cfg.gps_delay
         self._ident = DelayIdentifier(ts, cfg.max_delay)
         bic_cfg = BicycleObserverConfig(vehicle=cfg.vehicle, vehicle_overrides=cfg.vehicle_overrides, Ts=ts,
-                                        mu=cfg.mu, v_min=cfg.v_min, model_check=False, consistency_check=False)
+                                        mu=cfg.mu, v_min=cfg.v_min, consistency_check=False)
         self._bicycle = LinearBicycleObserver(bic_cfg, self.vehicle)
         self.yaw = self.roll = 0.0
         self.inclination = cfg.mag_inclination

@@ -123,7 +123,7 @@ def run_jobs(jobs, fmu_dir=DEFAULT_OUT, workers: int = 2, scheduler=None, as_pub
 
     ``options`` are more keyword arguments of :func:`run_scenario` (``controller``,
     ``control_source``).  The FMUs are built (if out of date) before the workers start.  ``as_published``
-    gives every estimator that has it ``consistency_check = false`` (a job's own ``params`` win): its
+    gives every estimator ``consistency_check = false`` (a job's own ``params`` win): its
     ``valid`` is the method's own, as the papers' tables score it
     (:class:`~sideslip.estimators.profiles.ProfiledEstimator`).
 
@@ -143,16 +143,8 @@ def run_jobs(jobs, fmu_dir=DEFAULT_OUT, workers: int = 2, scheduler=None, as_pub
 
 
 def _own_flags(estimators) -> dict:
-    """``consistency_check = false`` for each estimator instance whose FMU has the parameter."""
-    from ..estimators import ESTIMATORS
-    from ..params import declared_fields
-
-    out = {}
-    for inst, fmu in estimator_instances(estimators):
-        cls = ESTIMATORS.get(fmu)
-        if cls is not None and "consistency_check" in {f.name for f, _ in declared_fields(cls.config_class)}:
-            out[f"{inst}.consistency_check"] = False
-    return out
+    """``consistency_check = false`` for each estimator instance."""
+    return {f"{inst}.consistency_check": False for inst, _ in estimator_instances(estimators)}
 
 
 def run_library(scenario: str | Scenario, estimators=(), duration: float | None = None, step: float = 1e-3,
