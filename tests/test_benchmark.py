@@ -119,6 +119,20 @@ def test_row_metrics_on_a_constructed_estimate():
     assert never["valid"] == 0.0 and never["rms"] == pytest.approx(2.0) and math.isnan(never["rms_valid"])
 
 
+def test_the_summary_counts_cases_not_seed_means():
+    """The longest stretch off while valid is the worst case's (a mean over seeds would hide one bad seed), and
+    predict-zero, scored on the same samples, never beats itself."""
+    def case(seed, rms, off):
+        zero = {"rms": 2.0, "zero_rms": 2.0 * (1 + 1e-15), "max_abs_beta": 3.0, "off_while_valid": 0.0}
+        row = {"rms": rms, "zero_rms": 2.0, "max_abs_beta": 3.0, "off_while_valid": off, "not_valid_when_worse": 0.9}
+        return {"scenario": "s", "condition": "sensors", "seed": seed, "mu_min": 1.0,
+                "rows": {"predict-zero": zero, "x": row}}
+    s = summarise([case(0, 0.5, 0.0), case(1, 2.5, 1.2)])["sensors"]["rows"]
+    assert s["x"]["worst_off_while_valid"] == pytest.approx(1.2) and s["x"]["total_off_while_valid"] == pytest.approx(1.2)
+    assert (s["x"]["beats_zero_05"], s["x"]["knows_05"], s["x"]["cases_beta_05"]) == (1, 1, 2)
+    assert s["predict-zero"]["beats_zero_05"] == 0 and s["predict-zero"]["beats_zero"] == 0
+
+
 def test_the_tables_and_the_benchmark_share_one_scorer_apart_from_valid_only():
     """The paper tables score the valid samples, the benchmark every moving one: the same errors, the same
     speed threshold, one switch."""
