@@ -71,6 +71,13 @@ def test_calls_in_the_wrong_state_and_communication_point_gaps_are_refused(harne
     assert _status(f.fmi2DoStep, f.component, fmu.t, -1e-3, 1) == 3
     assert fmu.outputs() == before
     assert "a skipped or repeated interval" in fmu.messages[-3][1]
+    # a non-finite communication point and a step longer than the bound: refused, nothing changed
+    for point in (math.nan, math.inf):
+        assert _status(f.fmi2DoStep, f.component, point, 1e-3, 1) == 3
+        assert "is not finite" in fmu.messages[-1][1]
+    assert _status(f.fmi2DoStep, f.component, fmu.t, 1e5, 1) == 3
+    assert "longer than 10 s" in fmu.messages[-1][1]
+    assert fmu.outputs() == before
     assert fmu.step(delta_f=0.01) == 0                             # at the right time it goes on
     f.terminate()
     assert _status(f.fmi2DoStep, f.component, fmu.t, 1e-3, 1) == 3     # after terminate

@@ -74,6 +74,11 @@ _ERROR, _WARNING, _OK = Fmi2Status.error, Fmi2Status.warning, Fmi2Status.ok
 EPISODE_LOG_INTERVAL = 1.0
 """[s] of simulated time: a port's bad episodes are logged at most once per interval."""
 
+MAX_COMMUNICATION_STEP = 10.0
+"""[s] The longest communication step a ``doStep`` takes: the models integrate at their own sample period
+inside it, so a step's cost grows with its length (a 1e5 s step would block the host for minutes); a
+longer one is refused with a message, nothing changed.  A closed loop of these FMUs steps at 1-10 ms."""
+
 STEP_ROUNDING = 1e-9
 """Relative difference below which a communication step is the previous one: a host that computes each
 step as the difference of two communication points (OMSimulator) passes 0.001 as 0.0009999999999998899 or
@@ -475,7 +480,15 @@ class SideslipSlave(Fmi2Slave):
             self._log(f"{self.modelName}: communication step size {step_size!r} is not "
                       "a positive finite number; step refused", _ERROR)
             return False
+        if step_size > MAX_COMMUNICATION_STEP:
+            self._log(f"{self.modelName}: communication step size {step_size:g} s is longer than "
+                      f"{MAX_COMMUNICATION_STEP:g} s; step refused, nothing changed (step in shorter intervals)", _ERROR)
+            return False
         t = self._t
+        if not math.isfinite(current_time):
+            self._log(f"{self.modelName}: communication point {current_time!r} is not finite; step refused, "
+                      "nothing changed", _ERROR)
+            return False
         if abs(current_time - t) > 1e-9 * max(step_size, abs(t)):
             self._log(f"{self.modelName}: doStep from t={current_time:.9g} s, but the FMU is "
                       f"at t={t:.9g} s (a skipped or repeated interval); step refused, nothing changed (restore an "
