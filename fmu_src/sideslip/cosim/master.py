@@ -24,6 +24,7 @@ import ctypes
 import math
 import shutil
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -46,6 +47,7 @@ SCHEMES = ("gauss-seidel", "jacobi")
 # ---------------------------------------------------------------------------------------- extraction
 _EXTRACTED: dict[tuple, Path] = {}
 _EXTRACT_ROOT: Path | None = None
+_EXTRACT_LOCK = threading.Lock()   # loops in several threads of one process share the cache
 
 
 def _extract_cached(path: Path) -> Path:
@@ -53,13 +55,14 @@ def _extract_cached(path: Path) -> Path:
     global _EXTRACT_ROOT
     stat = path.stat()
     key = (str(path.resolve()), stat.st_size, stat.st_mtime_ns)
-    if key not in _EXTRACTED:
-        if _EXTRACT_ROOT is None:
-            _EXTRACT_ROOT = Path(tempfile.mkdtemp(prefix="sideslip_fmus_"))
-            atexit.register(shutil.rmtree, _EXTRACT_ROOT, True)
-        target = _EXTRACT_ROOT / f"{path.stem}_{len(_EXTRACTED)}"
-        _EXTRACTED[key] = Path(extract(str(path), unzipdir=str(target)))
-    return _EXTRACTED[key]
+    with _EXTRACT_LOCK:
+        if key not in _EXTRACTED:
+            if _EXTRACT_ROOT is None:
+                _EXTRACT_ROOT = Path(tempfile.mkdtemp(prefix="sideslip_fmus_"))
+                atexit.register(shutil.rmtree, _EXTRACT_ROOT, True)
+            target = _EXTRACT_ROOT / f"{path.stem}_{len(_EXTRACTED)}"
+            _EXTRACTED[key] = Path(extract(str(path), unzipdir=str(target)))
+        return _EXTRACTED[key]
 
 
 # ---------------------------------------------------------------------------------------- one instance
