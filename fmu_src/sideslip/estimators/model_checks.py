@@ -28,9 +28,10 @@ from .roll import RollCompensator
 __all__ = ["model_sideslip_std", "TireLinearity", "KinematicCheck", "ModelConsistency", "KINEMATIC_LIMIT"]
 
 KINEMATIC_LIMIT = math.radians(1.0)
-"""[rad] ``kinematic_limit`` of :class:`ModelConsistency`: chosen on the benchmark's training set, where it takes
-the published Kim 2016 filter's and the hardened Yoon 2014 filter's valid stretches more than 3 deg off in a wet
-J-turn and a friction drop (3.7 and 1.5 s) to 0.9 and 0 s, and no valid sample of SideslipFusion."""
+"""[rad] ``kinematic_limit`` of :class:`ModelConsistency`: how far an estimate may have lately moved against the
+kinematics before it is not consistent; chosen on the benchmark's training set, where it catches slides the
+single-track band (open beyond the linear range) cannot and clears no sample of an estimate that follows the car
+(the measurements: design history, "Valid from the consistency monitor")."""
 
 
 def model_sideslip_std(vehicle: VehicleParams, ay: float, stiffness_error: float) -> float:
@@ -146,7 +147,7 @@ class ModelConsistency:
     def __init__(self, vehicle: VehicleParams, ts: float, tol: float, stiffness_error: float = 0.3,
                  gap_factor: float = 3.0, kinematic_limit: float = KINEMATIC_LIMIT):
         self.linearity = TireLinearity(vehicle, ts, stiffness_error)
-        self.kinematics = KinematicCheck(ts, roll=RollCompensator(vehicle, ts))
+        self.kinematics = KinematicCheck(ts)      # fed the roll-compensated a_y of the model check
         self._roll = RollCompensator(vehicle, ts)
         self._vehicle, self._lr, self._e, self._tol, self._k = vehicle, vehicle.l_r, stiffness_error, tol, gap_factor
         self._kin = kinematic_limit
@@ -160,7 +161,7 @@ class ModelConsistency:
         gap = self.linearity.update(vx, r, delta, ay)
         self.model_beta = self._lr * r / vx - self.linearity.alpha_r
         band = self._tol + model_sideslip_std(self._vehicle, ay, self._e) + self._k * gap
-        moved = self.kinematics.update(beta, vx, r, ay_m)
+        moved = self.kinematics.update(beta, vx, r, ay)
         self.consistent = abs(beta - self.model_beta) <= band and moved <= self._kin
         return self.consistent
 
