@@ -1,5 +1,6 @@
 """Every example runs (short durations) and returns sensible results."""
 import functools
+import re
 import importlib.util
 from pathlib import Path
 
@@ -99,3 +100,32 @@ def test_compare_masters(tmp_path, fmu_dir, monkeypatch):
     assert out["libcosim vs fmpy (jacobi)"]["max_scaled"] <= 1e-9
     assert out["libcosim on SSP vs fmpy (jacobi)"]["max_scaled"] <= 1e-9
     assert out["ssp"].is_file()
+
+
+def test_the_notebook_runs_a_closed_loop_and_a_replay(fmu_dir, tmp_path, monkeypatch):
+    nbformat = pytest.importorskip("nbformat")
+    nbclient = pytest.importorskip("nbclient")
+    nb = nbformat.read(EXAMPLES / "closed_loop_and_replay.ipynb", as_version=4)
+    for cell in nb.cells:                   # the committed outputs are an earlier run's: run it afresh
+        if cell.cell_type == "code":
+            cell.outputs = []
+    monkeypatch.setenv("SIDESLIP_FMU_DIR", str(fmu_dir))
+    nbclient.NotebookClient(nb, timeout=900, kernel_name="python3",
+                            resources={"metadata": {"path": str(tmp_path)}}).execute()
+    text = "".join(o.get("text", "") for c in nb.cells if c.cell_type == "code" for o in c.outputs)
+    rms = {name: float(v) for name, v in re.findall(r"(fusion|pi) sideslip RMS error ([0-9.]+) deg", text)}
+    assert rms["fusion"] < 0.2 and rms["pi"] < 1.0
+    assert "vx stands in" in text and "| SideslipFusion |" in text
+    assert any(o.output_type == "display_data" for o in nb.cells[-1].outputs)
+
+
+def test_getting_started_shows_what_the_demo_prints(fmu_dir, tmp_path, capsys):
+    from sideslip.cli import main
+
+    page = (EXAMPLES.parent / "docs" / "getting-started.md").read_text()
+    shown = page.split("```text\n", 1)[1].split("```", 1)[0].splitlines()
+    assert main(["--fmu-dir", str(fmu_dir), "demo", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    timing = re.compile(r"us per step|real time")
+    assert [ln for ln in shown if not timing.search(ln)] == [ln for ln in printed[:len(shown)]
+                                                             if not timing.search(ln)]

@@ -21,12 +21,14 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = {"core": 0, "fmi": 1, "cosim": 2, "studies": 3, "cli": 4}
 """A module may import modules of its own layer and of the layers before it."""
 
-THIRD_PARTY = {"core": {"numpy", "scipy", "control", "vehiclemodels"},
-               "fmi": {"numpy", "scipy", "control", "vehiclemodels", "pythonfmu", "fmpy"},
-               "cosim": {"numpy", "scipy", "control", "vehiclemodels", "pythonfmu", "fmpy", "libcosimpy", "OMSimulator"},
-               "studies": {"numpy", "scipy", "control", "vehiclemodels", "fmpy", "matplotlib", "distributed"},
+_CORE = {"numpy", "scipy", "control", "vehiclemodels", "tqdm", "pyarrow", "asammdf"}
+THIRD_PARTY = {"core": _CORE,
+               "fmi": _CORE | {"pythonfmu", "fmpy"},
+               "cosim": _CORE | {"pythonfmu", "fmpy", "libcosimpy", "OMSimulator", "pandas"},
+               "studies": _CORE | {"fmpy", "matplotlib", "distributed"},
                "cli": {"numpy"}}
-"""Third-party packages each layer may import (the core never imports pythonfmu or fmpy)."""
+"""Third-party packages each layer may import (the core never imports pythonfmu or fmpy; tqdm for progress bars,
+pyarrow and asammdf for the logs' formats, each imported where it is used)."""
 
 
 def _layer(name: str) -> str:

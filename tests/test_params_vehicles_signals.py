@@ -34,7 +34,7 @@ def test_parameter_error_names_parameter_value_and_range():
         _Cfg(mode="c")
     with pytest.raises(ParameterError, match=r"an integer"):
         build(_Cfg, {"n": "2.5"})
-    with pytest.raises(ParameterError, match=r"known name: mass, mode, n"):
+    with pytest.raises(ParameterError, match=r"known name \(did you mean .mass.\?\): mass, mode, n"):
         build(_Cfg, {"mas": 2})
     assert build(_Cfg, {"mass": "2", "n": "4.0"}) == _Cfg(mass=2.0, n=4)
     for bad in (math.nan, math.inf):

@@ -134,6 +134,6 @@ def test_cli_replay_writes_estimates_metrics_and_plot(loop_log, fmu_dir, tmp_pat
     text = capsys.readouterr().out
     assert "| Yoon2014DualKF |" in text and "predict-zero RMS" in text
     assert all((out / f).stat().st_size > 200 for f in ("estimates.csv", "metrics.json", "sideslip.png"))
-    assert main(["--fmu-dir", str(fmu_dir), "replay", "--csv", str(tmp_path / "missing.csv"), "--estimator",
+    assert main(["--fmu-dir", str(fmu_dir), "replay", "--log", str(tmp_path / "missing.csv"), "--estimator",
                  "Yoon2014DualKF"]) == 2
-    assert "cannot be read as a CSV log" in capsys.readouterr().err
+    assert "no such file" in capsys.readouterr().err

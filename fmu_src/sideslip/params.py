@@ -9,6 +9,7 @@ modelDescription and the one in the error message cannot disagree.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 from dataclasses import dataclass
 from typing import Any, Iterable, Mapping
@@ -16,7 +17,7 @@ from typing import Any, Iterable, Mapping
 from .units import QUANTITIES
 
 __all__ = ["ParamInfo", "ParameterError", "ParamGroup", "ChoiceIndices", "param", "check", "declared_fields", "build", "parse_bool",
-           "parse_assignment", "parse_assignments", "format_assignments", "describe_range"]
+           "parse_assignment", "parse_assignments", "format_assignments", "describe_range", "did_you_mean", "one_of"]
 
 
 class ParameterError(ValueError):
@@ -39,6 +40,18 @@ class ParameterError(ValueError):
     def __reduce__(self):
         # rebuilt from its three fields, so it crosses a process pool or a Dask worker with its message
         return type(self), (self.name, self.value, self.allowed)
+
+
+def did_you_mean(name: str, known: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` naming the known names closest to a misspelt ``name``, or ``""``."""
+    close = difflib.get_close_matches(str(name), list(known), n=3, cutoff=0.6)
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+
+
+def one_of(name: str, known: Iterable[str], what: str) -> str:
+    """The message of an unknown ``name`` among ``known`` ``what`` s: the closest ones first, then every one."""
+    known = sorted(known)
+    return f"unknown {what} {name!r}{did_you_mean(name, known)}; known: {', '.join(known)}"
 
 
 @dataclass(frozen=True)
@@ -217,7 +230,8 @@ def build(cls, values: Mapping[str, Any] | None = None, prefix: str = "", **kwar
         elif key in other:
             converted[key] = raw
         else:
-            raise ParameterError(prefix + key, raw, "a known name: " + ", ".join(sorted(fields)))
+            raise ParameterError(prefix + key, raw, "a known name" + did_you_mean(key, fields) + ": "
+                                 + ", ".join(sorted(fields)))
     try:
         return cls(**converted)
     except ParameterError as exc:      # name the context (e.g. "maneuver sine_steer: frequency")

@@ -39,11 +39,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .signals import SENSOR_OUTPUTS, SIGNALS
+from .signals import SENSOR_OUTPUTS, SIGNALS, WHEEL_SPEEDS_M
 from .units import si_factor
 
-__all__ = ["Recording", "LogError", "read_log", "write_log", "replay", "OPTIONAL_INPUTS", "LOGGED_INPUTS", "REFERENCES",
-           "PLAUSIBLE"]
+__all__ = ["Recording", "LogError", "read_log", "write_log", "replay", "plausibility", "missing_columns",
+           "OPTIONAL_INPUTS", "LOGGED_INPUTS", "REFERENCES", "PLAUSIBLE", "LOG_READERS", "MAP_KEYS",
+           "WHEEL_SPEED_STAND_INS"]
 
 OPTIONAL_INPUTS = {"Mz_cmd": 0.0, "mu": 1.0, "mag_x": 0.0, "mag_y": 0.0, "mag_z": 0.0}
 """Inputs a log may lack, with the value used then: no stability controller, a dry road, no magnetometer (a zero
@@ -59,6 +60,9 @@ REFERENCES = ("beta", "vx", "vy", "yaw_rate", "yaw", "roll", "ay")
 PLAUSIBLE = {"Velocity": 100.0, "Acceleration": 40.0, "AngularVelocity": 6.0, "Angle": 3.2}
 """Largest magnitude a car's signal of each quantity reaches [SI]; wheel speeds are checked as
 speeds (``omega R`` with R up to 0.5 m).  A log beyond it has a unit wrong."""
+
+WHEEL_SPEED_STAND_INS = ("vx", *WHEEL_SPEEDS_M)
+"""What may stand in for the four wheel speeds (:meth:`Recording.with_wheel_speeds`)."""
 
 _WHEEL_SPEED_LIMIT = 250.0
 """[rad/s]: 100 m/s on a 0.4 m wheel."""
@@ -88,6 +92,8 @@ class Recording:
     signals: dict
     reference: dict = field(default_factory=dict)
     source: str = ""
+    wheel_speeds_from: str | None = None
+    """What stands in for missing wheel speeds (:meth:`with_wheel_speeds`), as the map file asks."""
 
     @property
     def duration(self) -> float:
@@ -113,34 +119,119 @@ class Recording:
             seen = arrivals[idx]
             out["gps_fresh"] = np.r_[seen[0] > 0, np.diff(seen) > 0].astype(float)
         ref = {name: np.asarray(v)[idx] for name, v in self.reference.items()}
-        return Recording(grid, out, ref, self.source)
+        return Recording(grid, out, ref, self.source, self.wheel_speeds_from)
 
-    def inputs(self, names) -> np.ndarray:
+    def window(self, t0: float = -math.inf, t1: float = math.inf) -> "Recording":
+        """The samples with ``t0 <= time <= t1`` [s].
+
+        Raises
+        ------
+        LogError
+            When fewer than two samples are left, naming the log's span.
+        """
+        keep = (self.time >= t0) & (self.time <= t1)
+        if keep.sum() < 2:
+            raise LogError(f"{self.source}: window {t0:g}:{t1:g} s holds fewer than two samples; the log covers "
+                           f"{self.time[0]:g} to {self.time[-1]:g} s")
+        return Recording(self.time[keep], {k: np.asarray(v)[keep] for k, v in self.signals.items()},
+                         {k: np.asarray(v)[keep] for k, v in self.reference.items()}, self.source,
+                         self.wheel_speeds_from)
+
+    def with_wheel_speeds(self, vehicle, source: str | None = None) -> "Recording":
+        """The recording with its four wheel speeds made from ``source`` where it has none.
+
+        Every estimator reads the wheels only through the mean of an axle (the undriven one:
+        :meth:`sideslip.estimators.base.Estimator.speed`), so one speed stands in for four: ``"vx"`` (a logged
+        speed over ground, a signal or a reference, e.g. from an optical sensor or the INS) gives every wheel
+        ``vx / R_w``; one wheel's speed (``"omega_rl_m"``...) gives its axle's mean by removing the yaw rate's
+        share at that wheel (``+- r t / 2``) when the log has the yaw rate.  Drive and brake slip of the wheels is
+        lost: the stand-in is the free-rolling speed.
+
+        Parameters
+        ----------
+        vehicle : VehicleParams
+            The estimators' vehicle (rolling radius, track).
+        source : str, optional
+            One of :data:`WHEEL_SPEED_STAND_INS` (default: the map's ``wheel_speeds_from``).
+
+        Raises
+        ------
+        LogError
+            When the recording lacks ``source``.
+        """
+        source = source or self.wheel_speeds_from
+        if source is None or all(w in self.signals for w in WHEEL_SPEEDS_M):
+            return self
+        if source not in WHEEL_SPEED_STAND_INS:
+            raise LogError(f"wheel speeds from {source!r}: allowed {', '.join(WHEEL_SPEED_STAND_INS)}")
+        series = self.signals.get(source, self.reference.get(source))
+        if series is None:
+            raise LogError(f"{self.source}: no column for {source}, which is to stand in for the wheel speeds")
+        series = np.asarray(series, dtype=float)
+        if source == "vx":
+            axle = series / vehicle.R_w
+        else:
+            side = 1.0 if source[len("omega_") + 1] == "l" else -1.0          # the left wheel runs slower in a left turn
+            track = vehicle.t_f if source[len("omega_")] == "f" else vehicle.t_r
+            r = np.asarray(self.signals.get("yaw_rate_m", np.zeros_like(series)), dtype=float)
+            axle = series + side * r * track / (2.0 * vehicle.R_w)
+        signals = dict(self.signals)
+        for w in WHEEL_SPEEDS_M:
+            signals[w] = axle
+        return Recording(self.time, signals, dict(self.reference), self.source, source)
+
+    def inputs(self, names, unused=()) -> np.ndarray:
         """Rows of the signals ``names`` (a model's ``input_names``), optional ones filled in.
+
+        ``unused`` are inputs the model's configuration never reads (e.g. the GNSS of an estimator told not to use
+        it): a log may lack them, and they are zero then.
 
         Raises
         ------
         LogError
             Naming the inputs the recording lacks.
         """
-        missing = [n for n in names if n not in self.signals and n not in OPTIONAL_INPUTS]
+        missing = [n for n in names if n not in self.signals and n not in OPTIONAL_INPUTS and n not in unused]
         if missing:
-            raise LogError(f"{self.source}: no column for {', '.join(missing)} (needed by the estimator; name the "
-                           "columns by the contract or map them in a map file)")
+            raise LogError(missing_columns(self.source, missing, "the estimator"))
         cols = [np.asarray(self.signals[n], dtype=float) if n in self.signals
-                else np.full(len(self.time), OPTIONAL_INPUTS[n]) for n in names]
+                else np.full(len(self.time), OPTIONAL_INPUTS.get(n, 0.0)) for n in names]
         return np.column_stack(cols)
 
 
+def missing_columns(source: str, missing, needed_by: str) -> str:
+    """The message of a log that lacks inputs, with what can stand in for them."""
+    text = (f"{source}: no column for {', '.join(missing)} (needed by {needed_by}; name the columns by the contract "
+            "or map them in a map file)")
+    if set(missing) & set(WHEEL_SPEEDS_M):
+        text += ("; without wheel speeds, a logged speed or one wheel's speed can stand in for them: "
+                 "--wheel-speeds-from vx (or omega_rl_m, ...), or wheel_speeds_from in the map file")
+    return text
+
+
 # ---------------------------------------------------------------------------------------- reading
-def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
+def _read_csv(path: Path, wanted=None) -> tuple[list[str], np.ndarray]:
+    """A CSV log: a header row, then numbers (numpy's parser; a file it refuses is read cell by cell to name the
+    column and row that is not a number)."""
     try:
         with path.open(newline="") as fh:
-            reader = csv.reader(fh)
-            header = [h.strip() for h in next(reader)]
-            rows = [r for r in reader if r and any(c.strip() for c in r)]
+            header = [h.strip() for h in next(csv.reader(fh))]
     except (OSError, StopIteration, UnicodeDecodeError, csv.Error) as exc:
         raise LogError(f"{path}: cannot be read as a CSV log with a header row ({exc})") from None
+    try:
+        data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, dtype=float)
+        if data.shape[1] == len(header) and len(data):
+            return header, data
+    except ValueError:
+        pass
+    return header, _read_csv_cells(path, header)
+
+
+def _read_csv_cells(path: Path, header: list) -> np.ndarray:
+    with path.open(newline="") as fh:
+        reader = csv.reader(fh)
+        next(reader)
+        rows = [r for r in reader if r and any(c.strip() for c in r)]
     if not rows:
         raise LogError(f"{path}: no data rows")
     data = np.full((len(rows), len(header)), np.nan)
@@ -154,7 +245,78 @@ def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
                     data[i, j] = float(cell)
                 except ValueError:
                     raise LogError(f"{path}: column {header[j]!r}, row {i + 2}: {cell!r} is not a number") from None
-    return header, data
+    return data
+
+
+def _read_parquet(path: Path, wanted=None) -> tuple[list[str], np.ndarray]:
+    """A Parquet table (pyarrow): numeric and Boolean columns; others read as missing."""
+    try:
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise LogError(f"{path}: reading Parquet needs pyarrow (pip install pyarrow, or sideslip-fmu[data])") from None
+    try:
+        table = pq.read_table(path)
+    except Exception as exc:  # noqa: BLE001 - pyarrow raises several types for a bad file
+        raise LogError(f"{path}: cannot be read as a Parquet log ({exc})") from None
+    header, columns = [], []
+    for name, column in zip(table.column_names, table.columns):
+        header.append(str(name))
+        try:
+            columns.append(np.asarray(column.to_numpy(zero_copy_only=False), dtype=float))
+        except (TypeError, ValueError):
+            columns.append(np.full(table.num_rows, np.nan))
+    if not table.num_rows:
+        raise LogError(f"{path}: no data rows")
+    return header, np.column_stack(columns)
+
+
+def _read_mdf(path: Path, wanted=None) -> tuple[list[str], np.ndarray]:
+    """An ASAM MDF (3 or 4) file (asammdf): the wanted channels on the time stamps of the one sampled most often,
+    each held from its last sample (zero-order hold, as :meth:`Recording.on_grid`), a column ``time`` [s] added."""
+    try:
+        from asammdf import MDF
+    except ImportError:
+        raise LogError(f"{path}: reading MDF needs asammdf (pip install asammdf, or sideslip-fmu[data])") from None
+    try:
+        mdf = MDF(path)
+    except Exception as exc:  # noqa: BLE001 - asammdf raises several types for a bad file
+        raise LogError(f"{path}: cannot be read as an MDF log ({exc})") from None
+    try:
+        names = [n for n in mdf.channels_db if n != "time" and (wanted is None or n in wanted)]
+        signals = {}
+        for name in names:
+            try:
+                sig = mdf.get(name)
+            except Exception:  # noqa: BLE001 - a channel asammdf cannot decode is treated as absent
+                continue
+            if sig.samples.dtype.kind in "biuf" and sig.samples.ndim == 1 and len(sig.timestamps):
+                signals[name] = (np.asarray(sig.timestamps, dtype=float), np.asarray(sig.samples, dtype=float))
+    finally:
+        mdf.close()
+    if not signals:
+        raise LogError(f"{path}: no numeric channel" + (f" among {', '.join(sorted(wanted))}" if wanted else ""))
+    time = max((t for t, _ in signals.values()), key=len)
+    header, columns = ["time"], [time]
+    for name, (t, v) in signals.items():
+        idx = np.searchsorted(t, time, side="right") - 1
+        columns.append(np.where(idx >= 0, v[np.maximum(idx, 0)], np.nan))
+        header.append(name)
+    return header, np.column_stack(columns)
+
+
+LOG_READERS = {".csv": _read_csv, ".txt": _read_csv, ".parquet": _read_parquet, ".pq": _read_parquet,
+               ".mf4": _read_mdf, ".mdf": _read_mdf, ".dat": _read_mdf}
+"""The log formats by file suffix: each reader returns the column names and a 2-D array of numbers (a column a
+signal).  Parquet needs pyarrow and MDF asammdf (the ``data`` extra)."""
+
+
+def _read_table(path: Path, wanted: set | None) -> tuple[list[str], np.ndarray]:
+    reader = LOG_READERS.get(path.suffix.lower())
+    if reader is None:
+        raise LogError(f"{path}: unknown log format {path.suffix!r}; known: {', '.join(sorted(LOG_READERS))}")
+    if not path.is_file():
+        raise LogError(f"{path}: no such file")
+    return reader(path, wanted)
 
 
 def _column(header, name: str, path: Path, required: bool = True) -> int | None:
@@ -186,6 +348,10 @@ def _entry(spec, where: str) -> tuple[str, str | None, float, float]:
         raise LogError(f"{where}: 'scale' and 'offset' must be numbers") from None
 
 
+MAP_KEYS = ("time", "signals", "reference", "wheel_speeds_from")
+"""The top-level keys of a map file."""
+
+
 def _load_map(map_path: Path | None) -> dict:
     if map_path is None:
         return {}
@@ -193,10 +359,21 @@ def _load_map(map_path: Path | None) -> dict:
         data = tomllib.loads(Path(map_path).read_text())
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise LogError(f"map file {map_path}: {exc}") from None
-    unknown = set(data) - {"time", "signals", "reference"}
+    unknown = set(data) - set(MAP_KEYS)
     if unknown:
-        raise LogError(f"map file {map_path}: unknown keys {', '.join(sorted(unknown))} (time, signals, reference)")
+        raise LogError(f"map file {map_path}: unknown keys {', '.join(sorted(unknown))} ({', '.join(MAP_KEYS)})")
     return data
+
+
+def _wanted(mapping: dict) -> set:
+    """The columns a map and the contract may name (what an MDF reader loads)."""
+    out = {"time"} | set(LOGGED_INPUTS) | set(REFERENCES)
+    for section in ("signals", "reference"):
+        for spec in mapping.get(section, {}).values():
+            out.add(spec if isinstance(spec, str) else spec.get("column", "") if isinstance(spec, dict) else "")
+    time = mapping.get("time", "time")
+    out.add(time if isinstance(time, str) else time.get("column", "time") if isinstance(time, dict) else "time")
+    return out
 
 
 def _convert(values, name: str, column: str, unit: str | None, scale: float, offset: float, path) -> np.ndarray:
@@ -237,12 +414,12 @@ def _check(name: str, column: str, values: np.ndarray, time: np.ndarray, path, m
 
 
 def read_log(csv_path: str | Path, map_path: str | Path | None = None, max_gap: float = 0.5) -> Recording:
-    """Read a CSV log (see module docstring).
+    """Read a log: CSV, Parquet or MDF (:data:`LOG_READERS`; see module docstring).
 
     Parameters
     ----------
     csv_path : path
-        The log: a header row, then one row per sample.
+        The log: a CSV file (a header row, then one row per sample), a Parquet table or an MDF file.
     map_path : path, optional
         TOML map of columns to contract signals, units, scale and offset.
     max_gap : float
@@ -254,8 +431,8 @@ def read_log(csv_path: str | Path, map_path: str | Path | None = None, max_gap: 
         Naming the file and the column.
     """
     path = Path(csv_path)
-    header, data = _read_csv(path)
     mapping = _load_map(Path(map_path) if map_path else None)
+    header, data = _read_table(path, _wanted(mapping))
     tcol, tunit, tscale, toff = _entry(mapping.get("time", "time"), "map file: time")
     ti = _column(header, tcol, path)
     time = data[:, ti] * si_factor(tunit or "s", "s") * tscale + toff
@@ -303,7 +480,99 @@ def read_log(csv_path: str | Path, map_path: str | Path | None = None, max_gap: 
             signals["gps_speed"] = np.hypot(ve, vn)
         if "gps_course" not in signals:
             signals["gps_course"] = np.arctan2(vn, ve)
-    return Recording(time, signals, reference, str(path))
+    stand_in = mapping.get("wheel_speeds_from")
+    if stand_in is not None and stand_in not in WHEEL_SPEED_STAND_INS:
+        raise LogError(f"map file: wheel_speeds_from = {stand_in!r}; allowed: {', '.join(WHEEL_SPEED_STAND_INS)}")
+    return Recording(time, signals, reference, str(path), stand_in)
+
+
+def _moving_speed(rec: Recording, radius: float) -> np.ndarray:
+    """The best speed the recording has [m/s]: the reference, the GNSS, else the wheels on ``radius``."""
+    if "vx" in rec.reference:
+        return np.abs(np.asarray(rec.reference["vx"], dtype=float))
+    if "gps_speed" in rec.signals:
+        return np.asarray(rec.signals["gps_speed"], dtype=float)
+    wheels = [np.asarray(rec.signals[w], dtype=float) for w in WHEEL_SPEEDS_M if w in rec.signals]
+    return np.abs(np.mean(wheels, axis=0)) * radius if wheels else np.zeros(len(rec.time))
+
+
+def _correlation(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
+    if mask.sum() < 20:
+        return math.nan
+    x, y = a[mask] - a[mask].mean(), b[mask] - b[mask].mean()
+    den = math.sqrt(float(x @ x) * float(y @ y))
+    return float(x @ y) / den if den > 0 else math.nan
+
+
+def plausibility(rec: Recording, vehicle=None) -> list[str]:
+    """What in a log looks wrong though every value is within a car's range: signs, scales and units that the
+    physics of the drive contradict.  Each finding names the signal and what to change in the map file.
+
+    Checks, on the samples faster than 5 m/s:
+
+    * the reference sideslip beyond 0.2 rad (11 deg) for half the drive, or beyond 0.15 rad in a tenth of the
+      samples with less than 2 m/s2 of lateral acceleration: logged in degrees?
+    * the lateral acceleration against yaw rate x speed (steady turning), and the steering against the yaw rate:
+      opposite signs mean a flipped axis (``scale = -1``);
+    * the longitudinal acceleration against the change of speed: the same;
+    * the road-wheel angle beyond 0.6 rad (34 deg) at speed: the handwheel angle (divide by the steering ratio);
+    * the wheels' speed (on ``vehicle``'s rolling radius, 0.31 m without one) against the GNSS speed: off by more
+      than 20 % is a unit (rpm, km/h) or a radius wrong.
+
+    Returns
+    -------
+    list of str
+        The findings, empty for a plausible log.
+    """
+    radius = vehicle.R_w if vehicle is not None else 0.31
+    speed = _moving_speed(rec, radius)
+    moving = speed > 5.0
+    out = []
+    if not moving.any():
+        return ["the log never moves faster than 5 m/s (by its speed signals): nothing to estimate"]
+    sig, ref = rec.signals, rec.reference
+    if "beta" in ref:
+        beta = np.abs(np.asarray(ref["beta"], dtype=float))
+        calm = moving & (np.abs(np.asarray(sig["ay_m"], dtype=float)) < 2.0) if "ay_m" in sig else moving
+        typical = float(np.median(beta[moving]))
+        calm_p90 = float(np.percentile(beta[calm], 90)) if calm.sum() > 20 else 0.0
+        if typical > 0.2 or calm_p90 > 0.15:
+            out.append(f"reference beta: {typical:.2f} rad typical while moving and {calm_p90:.2f} rad (90th "
+                       "percentile) below 2 m/s2 of lateral acceleration, where a car holds a few hundredths of a "
+                       "radian: is it logged in degrees? (unit = \"deg\" in the map file)")
+    if "ay_m" in sig and "yaw_rate_m" in sig:
+        ay, r = np.asarray(sig["ay_m"], dtype=float), np.asarray(sig["yaw_rate_m"], dtype=float)
+        c = _correlation(ay, r * speed, moving & (np.abs(ay) > 1.0))
+        if c < -0.5:
+            out.append(f"ay_m and yaw_rate_m: in turns their signs disagree (correlation of a_y with r v {c:.2f}): "
+                       "one axis is flipped (scale = -1 on it in the map file; ISO 8855: y left, z up)")
+    if "delta_m" in sig and "yaw_rate_m" in sig:
+        d, r = np.asarray(sig["delta_m"], dtype=float), np.asarray(sig["yaw_rate_m"], dtype=float)
+        c = _correlation(d, r, moving & (np.abs(r) > 0.05))
+        if c < -0.5:
+            out.append(f"delta_m and yaw_rate_m: their signs disagree (correlation {c:.2f}): the steering or the gyro "
+                       "is flipped (scale = -1; positive steering turns left)")
+        big = float(np.max(np.abs(d[speed > 10.0]), initial=0.0))
+        if big > 0.6:
+            out.append(f"delta_m reaches {big:.2f} rad ({np.degrees(big):.0f} deg) above 10 m/s: is it the handwheel "
+                       "angle? The estimators take the road-wheel angle (scale = 1 / steering ratio)")
+    if "ax_m" in sig and len(rec.time) > 2:
+        ax = np.asarray(sig["ax_m"], dtype=float)
+        dv = np.gradient(speed, rec.time)
+        c = _correlation(ax, dv, moving & (np.abs(dv) > 0.5))
+        if c < -0.5:
+            out.append(f"ax_m: it disagrees in sign with the change of speed (correlation {c:.2f}): flipped? "
+                       "(scale = -1; ISO 8855: x forward)")
+    wheels = [np.asarray(sig[w], dtype=float) for w in WHEEL_SPEEDS_M if w in sig]
+    if wheels and "gps_speed" in sig:
+        gps = np.asarray(sig["gps_speed"], dtype=float)
+        use = moving & (gps > 5.0)
+        if use.sum() > 20:
+            ratio = float(np.median(np.abs(np.mean(wheels, axis=0))[use] * radius / gps[use]))
+            if not 0.8 < ratio < 1.25:
+                out.append(f"wheel speeds: on a {radius:.3f} m rolling radius they give {ratio:.2f} x the GNSS speed: "
+                           "a unit (rpm: unit = \"rpm\"; a speed in km/h: convert to rad/s) or the radius is wrong")
+    return out
 
 
 def write_log(recording: Recording, path: str | Path, every: int = 1) -> Path:
@@ -340,7 +609,8 @@ def replay(model, recording: Recording, step: float | None = None) -> dict[str, 
     """
     rec = recording.on_grid(step) if step is not None else recording
     h = float(rec.time[1] - rec.time[0]) if step is None else step
-    u = rec.inputs(model.input_names).tolist()          # Python floats: the models compute on them
+    unused = model.unused_inputs(vars(model.config)) if hasattr(model, "unused_inputs") else ()
+    u = rec.inputs(model.input_names, unused).tolist()          # Python floats: the models compute on them
     out = np.empty((len(rec.time), len(model.output_names)))
     out[0] = model.outputs()
     step_fn, outputs = model.step, model.outputs

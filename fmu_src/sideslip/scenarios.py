@@ -13,12 +13,12 @@ import math
 from dataclasses import dataclass, field
 from functools import lru_cache
 
-from .params import ParameterError, declared_fields, parse_assignments
+from .params import ParameterError, declared_fields, did_you_mean, parse_assignments
 from .plant.maneuvers import maneuver_spec as _spec
 from .plant.maneuvers import parse_maneuver
 from .constants import GRAVITY, STANDARD_GRAVITY
 
-__all__ = ["FMVSS_FACTORS", "Scenario", "SCENARIOS", "get_scenario", "scenario_names", "fmvss126_reference_angle",
+__all__ = ["FMVSS_FACTORS", "Scenario", "SCENARIOS", "get_scenario", "scenario_duration", "scenario_names", "fmvss126_reference_angle",
            "scenario_params", "BENCHMARK_TRAINING", "BENCHMARK_TEST",
            "BENCHMARK_DEVELOPMENT"]
 
@@ -490,6 +490,13 @@ def scenario_names() -> list[str]:
     return sorted(set(SCENARIOS) | set(_LAZY))
 
 
+def scenario_duration(name: str) -> float:
+    """How long scenario ``name`` drives [s], without computing an FMVSS 126 amplitude it has not yet needed."""
+    if name not in SCENARIOS and name in _LAZY:
+        return 8.0 if "_sis" not in name else 25.0
+    return get_scenario(name).duration
+
+
 def get_scenario(name: str, **overrides) -> Scenario:
     """Scenario ``name``, optionally with overrides (see :meth:`Scenario.with_overrides`).
 
@@ -501,7 +508,8 @@ def get_scenario(name: str, **overrides) -> Scenario:
     if name not in SCENARIOS and name in _LAZY:
         SCENARIOS[name] = _fmvss(*_LAZY[name])
     if name not in SCENARIOS:
-        raise ParameterError("scenario", name, "one of " + ", ".join(scenario_names()))
+        raise ParameterError("scenario", name, "a scenario name" + did_you_mean(name, scenario_names())
+                             + " (python -m sideslip list scenarios lists them)")
     sc = SCENARIOS[name]
     return sc.with_overrides(**overrides) if overrides else sc
 

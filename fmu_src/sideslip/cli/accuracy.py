@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .common import case_args, kv
+from .common import EXAMPLES_FORMAT, case_args, count, kv
 
 __all__ = ["register"]
 
@@ -42,7 +42,10 @@ def _cmd_benchmark(args) -> int:
 
 def register(sub) -> None:
     bench_e = sub.add_parser("benchmark", help="every estimator on every case of the benchmark (scenario x condition "
-                             "x seed): leaderboard, JSON, heat map, error plots")
+                             "x seed): leaderboard, JSON, heat map, error plots", formatter_class=EXAMPLES_FORMAT,
+                             epilog="examples:\n  sideslip benchmark --quick\n  sideslip benchmark --training "
+                             "--estimator SideslipFusion --param sigma_accel=0.2\n  sideslip benchmark --log drive.csv "
+                             "--map map.toml --vehicle my_car.toml")
     case_args(bench_e, "2 seeds, sensors+mismatch on both plants and the real drive", "default 5, quick 2",
               "only this condition (real: the real drive's slice)", "only this scenario")
     which = bench_e.add_mutually_exclusive_group()
@@ -63,6 +66,6 @@ def register(sub) -> None:
     bench_e.add_argument("--map", help="column map of the logs (TOML, see the user guide)")
     bench_e.add_argument("--vehicle", help="the estimators' vehicle on the logs: a bundled name or a TOML file")
     bench_e.add_argument("--out", default="out/benchmark", help="output folder (default %(default)s)")
-    bench_e.add_argument("--workers", type=int, default=2, help="parallel processes (default %(default)s)")
+    bench_e.add_argument("--workers", type=count, default=2, help="parallel processes (default %(default)s)")
     bench_e.add_argument("--scheduler", help="address of a Dask scheduler instead of local processes")
     bench_e.set_defaults(func=_cmd_benchmark)

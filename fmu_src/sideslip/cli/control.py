@@ -5,7 +5,7 @@ import json
 import sys
 from pathlib import Path
 
-from .common import case_args, kv
+from .common import EXAMPLES_FORMAT, case_args, count, kv
 
 __all__ = ["register"]
 
@@ -49,7 +49,9 @@ def _cmd_control(args) -> int:
 def register(sub) -> None:
     ctl = sub.add_parser("control", help="closed-loop evaluation of the yaw-moment controllers under realistic "
                          "sensors and model mismatch: FMVSS 126, brake in a turn on snow, acceleration in a turn, "
-                         "launch into a turn, straight drive, changing friction")
+                         "launch into a turn, straight drive, changing friction", formatter_class=EXAMPLES_FORMAT,
+                         epilog="examples:\n  sideslip control --quick\n  sideslip control --source 'LQR / truth' "
+                         "--source 'ESC / truth' --factors 5,6.5\n  sideslip control --param q_gamma=3e6 --workers 2")
     case_args(ctl, "1 seed, FMVSS 126 at 3.5A, 5A and 6.5A", "default 2, quick 1",
               "sensors or sensors+mismatch (default both)", "only this scenario besides FMVSS 126")
     ctl.add_argument("--source", action="append", help="only this row, e.g. 'LQR / truth' (repeatable)")
@@ -61,7 +63,7 @@ def register(sub) -> None:
                      help="run the models in-process (default) or the FMUs through fmpy")
     ctl.add_argument("--plot", action="store_true", help="only write the command-split figure of the docs")
     ctl.add_argument("--out", default="out/control", help="output folder (default %(default)s)")
-    ctl.add_argument("--workers", type=int, default=2)
+    ctl.add_argument("--workers", type=count, default=2, help="parallel processes (default %(default)s)")
     ctl.add_argument("--scheduler", help="address of a Dask scheduler instead of local processes")
-    ctl.add_argument("--json", action="store_true")
+    ctl.add_argument("--json", action="store_true", help="print the summary as JSON instead of the tables")
     ctl.set_defaults(func=_cmd_control)

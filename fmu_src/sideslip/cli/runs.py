@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .common import kv, run_args
+from .common import EXAMPLES_FORMAT, kv, run_args
 
 __all__ = ["register", "DEMO_SCENARIO"]
 
@@ -37,24 +37,33 @@ def _assumptions(estimators) -> list[tuple[str, str]]:
 
 
 def _run(args, estimators, out_dir) -> int:
+    from ..cosim.assembly import scenario_components
+    from ..progress import fraction_callback, progress_bar
+    from ..scenarios import get_scenario
     from ..studies.runs import run_scenario
-
-    def progress(frac):
-        print(f"\r  {frac * 100:5.1f} %", end="", file=sys.stderr, flush=True)
 
     controller = None if args.controller in (None, "none") else args.controller
     overrides = kv(args.set, "--set")
     if getattr(args, "profile", None):
         overrides["estimator_profile"] = PROFILES[args.profile]
+    params = kv(args.param, "--param")
+    formats = tuple(dict.fromkeys(args.format or ["csv"]))
+    # every name and value checked before an FMU is built or loaded
+    scenario = get_scenario(args.scenario, **overrides)
+    scenario_components(scenario, estimators, controller, params, getattr(args, "control_source", None))
+    duration = args.duration or scenario.duration
+    if args.window and args.window[0] >= duration:
+        raise ValueError(f"--window starts at {args.window[0]:g} s, after the run's end at {duration:g} s")
     print(f"running {args.scenario}" + (f" with {', '.join(estimators)}" if estimators else "")
           + (f", controller {controller}" if controller else "") + f" -> {out_dir}", file=sys.stderr)
-    run = run_scenario(args.scenario, estimators, controller, out_dir=out_dir, duration=args.duration,
-                       step=args.step, record_every=args.record_every, fmu_dir=args.fmu_dir,
-                       params=kv(args.param, "--param"), overrides=overrides,
-                       control_source=getattr(args, "control_source", None),
-                       progress=progress if sys.stderr.isatty() else None,
-                       master=getattr(args, "master", "fmpy"), scheme=getattr(args, "scheme", "gauss-seidel"))
-    print("", file=sys.stderr)
+    with progress_bar(duration, "closed loop", "sim s") as bar:
+        run = run_scenario(args.scenario, estimators, controller, out_dir=out_dir, duration=args.duration,
+                           step=args.step, record_every=args.record_every, fmu_dir=args.fmu_dir,
+                           params=params, overrides=overrides,
+                           control_source=getattr(args, "control_source", None),
+                           progress=fraction_callback(bar) if not bar.disable else None,
+                           master=getattr(args, "master", "fmpy"), scheme=getattr(args, "scheme", "gauss-seidel"),
+                           window=args.window, formats=formats)
     m = run.metrics
     s = m["summary"]
     print(f"scenario {m['scenario']['name']}: {m['scenario']['description']}")
@@ -78,7 +87,8 @@ def _run(args, estimators, out_dir) -> int:
         print("\nFMU messages:")
         for msg in warnings[:20]:
             print("  " + msg)
-    print(f"\nwrote {Path(out_dir) / 'results.csv'}, metrics.json, sideslip.png")
+    files = [f"results.{f}" for f in formats] + ["metrics.json", "sideslip.png"]
+    print(f"\nwrote {Path(out_dir) / files[0]}, " + ", ".join(files[1:]))
     return 0
 
 
@@ -106,19 +116,25 @@ def _cmd_export_ssp(args) -> int:
 
 
 def register(sub) -> None:
-    run = sub.add_parser("run", help="run a scenario in closed loop")
+    run = sub.add_parser("run", help="run a scenario in closed loop", formatter_class=EXAMPLES_FORMAT, epilog=(
+        "examples:\n  sideslip run --scenario pi2011_medium --estimator SideslipFusion --controller LqrDycController\n"
+        "  sideslip run --scenario pi2011_low --set road_mu=0.25 --duration 5 --window 1:4 --format mf4\n"
+        "  sideslip run --scenario nguyen2012_cornering --estimator srkf=Nguyen2012DACMRKF --param srkf.mode=srkf"))
     run_args(run, True)
     run.add_argument("--estimator", action="append", help="estimator FMU (repeatable)")
     run.add_argument("--profile", choices=tuple(PROFILES), help="the paper methods' profile (default: the "
                      "scenario's; a paper's scenario runs them as published)")
     run.set_defaults(func=_cmd_run)
     demo = sub.add_parser("demo", help=f"run {DEMO_SCENARIO} with every estimator (the paper methods hardened), print "
-                          "metrics, write a plot")
+                          "metrics, write a plot", formatter_class=EXAMPLES_FORMAT,
+                          epilog="examples:\n  sideslip demo\n  sideslip demo --profile published --out out/published")
     run_args(demo, False)
     demo.add_argument("--profile", choices=tuple(PROFILES), default="hardened", help="the paper methods' profile: "
                       "hardened (default), or published, the papers' form")
     demo.set_defaults(func=_cmd_demo)
-    ssp = sub.add_parser("export-ssp", help="write a scenario's closed loop as an SSP 1.0 package (FMUs inside)")
+    ssp = sub.add_parser("export-ssp", help="write a scenario's closed loop as an SSP 1.0 package (FMUs inside)",
+                         formatter_class=EXAMPLES_FORMAT, epilog="example:\n  sideslip export-ssp loop.ssp --scenario "
+                         "pi2011_medium --estimator Pi2011FuzzyEKF --controller LqrDycController")
     ssp.add_argument("out", metavar="OUT.ssp", help="the package to write")
     ssp.add_argument("--scenario", required=True, help="scenario name (see list)")
     ssp.add_argument("--estimator", action="append", help="estimator FMU (repeatable)")

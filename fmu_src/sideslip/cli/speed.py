@@ -1,6 +1,8 @@
 """``bench``: microseconds per FMU step and the closed-loop real-time factor."""
 from __future__ import annotations
 
+from .common import EXAMPLES_FORMAT, count, positive
+
 import json
 
 __all__ = ["register"]
@@ -15,8 +17,11 @@ def _cmd_bench(args) -> int:
 
 
 def register(sub) -> None:
-    bench = sub.add_parser("bench", help="microseconds per step per FMU and closed-loop real-time factor")
-    bench.add_argument("--json", action="store_true")
-    bench.add_argument("--duration", type=float, default=5.0, help="simulated seconds per measurement")
-    bench.add_argument("--repeats", type=int, default=3, help="runs per measurement, the best reported (default 3)")
+    bench = sub.add_parser("bench", help="microseconds per step per FMU and closed-loop real-time factor",
+                           formatter_class=EXAMPLES_FORMAT, epilog="examples:\n  sideslip bench\n  sideslip bench "
+                           "--duration 2 --repeats 1 --json > bench.json")
+    bench.add_argument("--json", action="store_true", help="print the figures as JSON instead of the table")
+    bench.add_argument("--duration", type=positive, default=5.0, help="simulated seconds per measurement "
+                       "(default %(default)s)")
+    bench.add_argument("--repeats", type=count, default=3, help="runs per measurement, the best reported (default 3)")
     bench.set_defaults(func=_cmd_bench)

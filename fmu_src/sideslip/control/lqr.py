@@ -1,14 +1,20 @@
 """LQR feedback of the direct yaw moment (Nguyen 2012 eqs 25-26), scheduled on speed.
 
 The plant for the design is the linear bicycle model (eqs 1-2) with the in-wheel motors' yaw
-moment ``N_z`` as the only input, ``x = [beta, gamma]``.  ``control.lqr`` minimises eq 26,
+moment ``N_z`` as the only input, ``x = [beta, gamma]``.  The LQR minimises eq 26,
 ``J = 1/2 int q_beta E_beta^2 + q_gamma E_gamma^2 + q_N N_z^2 dt``, giving ``N_z = -K x``;
 applied to the tracking error ``E = x* - x_hat`` this is eq 25 with ``[g_beta, g_gamma] = K``.
+
+:func:`lqr_row` solves the Riccati equation with SciPy's ``solve_continuous_are``, the call
+python-control's ``control.lqr`` makes without slycot (the same arguments, so the gains are
+bit-identical: tests/test_control.py), rather than through ``control.lqr`` itself: importing
+python-control takes about 2 s (it imports matplotlib and scipy.signal), which every controller
+FMU would otherwise spend at instantiation.
 """
 from __future__ import annotations
 
-import control
 import numpy as np
+from scipy.linalg import solve_continuous_are
 
 from ..bicycle import BicycleModel
 from .schedule import SpeedTable, speed_grid
@@ -23,9 +29,11 @@ def yaw_moment_model(model: BicycleModel, vx: float) -> tuple[np.ndarray, np.nda
 
 
 def lqr_row(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: float) -> np.ndarray:
-    """Gain row ``k`` of the single-input LQR ``u = -k x`` for ``dx/dt = a x + b u`` (``control.lqr``)."""
-    k, _, _ = control.lqr(a, b, q, np.array([[r]]))
-    return np.asarray(k, dtype=float).ravel()
+    """Gain row ``k`` of the single-input LQR ``u = -k x`` for ``dx/dt = a x + b u`` (as ``control.lqr``)."""
+    a, b, q = (np.array(m, ndmin=2) for m in (a, b, q))
+    rr = np.array([[r]], ndmin=2)
+    x = solve_continuous_are(a, b, q, rr)
+    return np.asarray(np.linalg.solve(rr, b.T @ x), dtype=float).ravel()
 
 
 def lqr_gains(model: BicycleModel, vx: float, q_beta: float, q_gamma: float, q_N: float) -> tuple[float, float]:

@@ -23,7 +23,7 @@ from pathlib import Path
 
 from ..fmi.build import DEFAULT_OUT, ensure_fmus
 from ..fmi.catalogue import CATALOGUE, fmu_names, fmu_spec
-from ..params import ParameterError, declared_fields, parse_assignment
+from ..params import ParameterError, declared_fields, did_you_mean, one_of, parse_assignment
 from ..scenarios import Scenario, scenario_params
 
 __all__ = ["Component", "Interface", "MasterError", "INPUT_ALIASES", "PLANT", "SENSORS", "DRIVER", "TRUTH_SOURCE",
@@ -214,7 +214,7 @@ def scenario_components(scenario: Scenario, estimators=(), controller: str | Non
     known = set(fmu_names("estimator"))
     for _, fmu in pairs:
         if fmu not in known:
-            raise KeyError(f"unknown estimator {fmu!r}; estimators: {', '.join(sorted(known)) or 'none yet'}")
+            raise KeyError(one_of(fmu, known, "estimator"))
     comps = [Component(DRIVER, "driver", scenario.driver_params()),
              Component(PLANT, "plant", scenario.plant_params()),
              Component(SENSORS, "sensors", scenario.sensor_params())]
@@ -222,7 +222,7 @@ def scenario_components(scenario: Scenario, estimators=(), controller: str | Non
     connections = []
     if controller:
         if controller not in fmu_names("controller"):
-            raise KeyError(f"unknown controller {controller!r}; controllers: {', '.join(fmu_names('controller'))}")
+            raise KeyError(one_of(controller, fmu_names("controller"), "controller"))
         comps.append(Component(controller, "controller", _auto_params(controller, scenario)))
         inputs = set(fmu_spec(controller).inputs)
         source = control_source or (estimators[0] if estimators else "truth")
@@ -249,6 +249,9 @@ def scenario_components(scenario: Scenario, estimators=(), controller: str | Non
         match = [c for c in comps if c.name == inst]
         if not match or not name:
             raise KeyError(f"parameter override {key!r}: use <instance>.<parameter> with instance one of "
-                           + ", ".join(c.name for c in comps))
+                           + ", ".join(c.name for c in comps) + did_you_mean(inst, [c.name for c in comps]))
+        known = fmu_spec(match[0].fmu).parameter_names
+        if name not in known:
+            raise KeyError(f"parameter override {key!r}: " + one_of(name, known, f"parameter of {match[0].fmu}"))
         match[0].parameters[name] = value
     return comps, connections

@@ -187,20 +187,25 @@ class CoSimulation:
                     inst.slave.setupExperiment(startTime=0.0)
                     inst.slave.enterInitializationMode()
                 except Exception as exc:
-                    raise MasterError(f"{inst.name}: {exc}\n" + self._log_of(inst.name)) from exc
+                    raise self._failure(inst.name, exc) from exc
             self._push_inputs_all()
             for inst in self._instances:
                 try:
                     inst.slave.exitInitializationMode()
                 except Exception as exc:
-                    raise MasterError(f"{inst.name}: {exc}\n" + self._log_of(inst.name)) from exc
+                    raise self._failure(inst.name, exc) from exc
             self._pull_outputs_all()
         except Exception:
             self.close()
             raise
 
-    def _log_of(self, name: str) -> str:
-        return "\n".join(f"  [{lvl}] {msg}" for inst, lvl, msg in self.messages if inst == name)
+    def _failure(self, name: str, exc: Exception) -> MasterError:
+        """The error of an FMU that refused to initialise: its own messages first (they name the parameter and the
+        allowed range), the failed FMI call after them."""
+        errors = [msg for inst, lvl, msg in self.messages if inst == name and lvl in ("error", "fatal")]
+        others = [f"  [{lvl}] {msg}" for inst, lvl, msg in self.messages if inst == name and lvl not in ("error", "fatal")]
+        lead = "\n".join(m if m.startswith(name) else f"{name}: {m}" for m in errors) or f"{name}: {exc}"
+        return MasterError("\n".join([lead, *others] + ([f"  ({exc})"] if errors else [])))
 
     def _layout(self):
         """Buffers: all Real outputs in one float64 vector, all Boolean outputs in one int32 vector."""

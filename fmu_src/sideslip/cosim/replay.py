@@ -6,7 +6,8 @@ hold, :meth:`sideslip.recording.Recording.on_grid`): the step from ``t_k-1`` to 
 recording's values at ``t_k``, as the fmpy master's Gauss-Seidel loop gives an estimator the
 sensors' outputs of the same step (and as :func:`sideslip.recording.replay` steps a library model),
 so a log of a closed loop replays to the loop's own estimates.  An input the recording lacks keeps its
-start value (``Mz_cmd`` 0: no controller, ``mu`` 1) and is listed in ``meta["unconnected_inputs"]``;
+start value (``Mz_cmd`` 0: no controller, ``mu`` 1; the GNSS of an estimator configured without it, its
+``unused_inputs``) and is listed in ``meta["unconnected_inputs"]``;
 an input the estimator needs that the recording cannot give is an error naming the column.
 """
 from __future__ import annotations
@@ -18,7 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from ..fmi.build import DEFAULT_OUT
-from ..recording import LogError, OPTIONAL_INPUTS, Recording
+from ..fmi.catalogue import fmu_spec
+from ..progress import progress_bar
+from ..recording import LogError, OPTIONAL_INPUTS, Recording, missing_columns
 from .assembly import MasterError, fmu_paths
 from .master import _Instance
 from .results import Results
@@ -26,7 +29,8 @@ from .results import Results
 __all__ = ["replay_fmus"]
 
 
-def replay_fmus(recording: Recording, components, step: float = 1e-3, fmu_dir: str | Path = DEFAULT_OUT) -> Results:
+def replay_fmus(recording: Recording, components, step: float = 1e-3, fmu_dir: str | Path = DEFAULT_OUT,
+                progress: bool = False) -> Results:
     """Run estimator FMUs on a recording.
 
     Parameters
@@ -39,6 +43,8 @@ def replay_fmus(recording: Recording, components, step: float = 1e-3, fmu_dir: s
         Communication step [s]; the recording is resampled onto it.
     fmu_dir : path
         Folder of the built FMUs (built on first use).
+    progress : bool
+        A progress bar on stderr when it is a terminal.
 
     Returns
     -------
@@ -62,6 +68,7 @@ def replay_fmus(recording: Recording, components, step: float = 1e-3, fmu_dir: s
     instances, plans, unconnected = [], [], []
     try:
         for comp in components:
+            unused = getattr(fmu_spec(comp.fmu).model_class, "unused_inputs", lambda p: ())(comp.parameters)
             inst = _Instance(comp, paths[comp.name], messages)
             inst.instantiate()
             instances.append(inst)
@@ -70,11 +77,12 @@ def replay_fmus(recording: Recording, components, step: float = 1e-3, fmu_dir: s
             for name, var in inst.inputs.items():
                 if name in rec.signals:
                     (real_in if var.type == "Real" else bool_in).append(name)
-                elif name in OPTIONAL_INPUTS:
+                elif name in OPTIONAL_INPUTS or name in unused:
                     unconnected.append(f"{comp.name}.{name}")
                 else:
-                    raise LogError(f"{rec.source}: no column for {name} (needed by {comp.fmu}; name the columns by "
-                                   "the contract or map them in a map file)")
+                    raise LogError(missing_columns(rec.source, [n for n in inst.inputs if n not in rec.signals
+                                                                and n not in OPTIONAL_INPUTS and n not in unused],
+                                                   comp.fmu))
             vr = lambda ns: (ctypes.c_uint * len(ns))(*[inst.vars[v].valueReference for v in ns])  # noqa: E731,B023
             u_real = np.ascontiguousarray(np.column_stack([rec.signals[v] for v in real_in]) if real_in
                                           else np.zeros((n, 0)))
@@ -91,6 +99,7 @@ def replay_fmus(recording: Recording, components, step: float = 1e-3, fmu_dir: s
         wall0 = time.perf_counter()
         c_h, one = ctypes.c_double(step), ctypes.c_int(1)
         col = 0
+        bar = progress_bar(len(plans) * rec.duration, "replay", "sim s", enabled=None if progress else False)
         for inst, vr_r, u_r, vr_b, u_b, vr_or, vr_ob, outs in plans:
             f, comp = inst._fn, inst.component
             n_r, n_b, n_or, n_ob = u_r.shape[1], u_b.shape[1], len(inst.outputs_real), len(inst.outputs_bool)
@@ -113,7 +122,10 @@ def replay_fmus(recording: Recording, components, step: float = 1e-3, fmu_dir: s
                     inst.check(2, "fmi2GetBoolean")
                 out[k, col:col + n_or] = y
                 out[k, col + n_or:col + n_or + n_ob] = yb
+                if k % 5000 == 4999:
+                    bar.update(5000 * step)
             col += len(outs)
+        bar.close()
         wall = time.perf_counter() - wall0
     finally:
         for inst in reversed(instances):

@@ -10,7 +10,10 @@ toolkit holds or clamps such inputs (:attr:`~sideslip.model.Model.held_inputs`),
 on the held values and ``valid`` is false.  A filter that fails
 numerically (a singular innovation covariance, a non-finite estimate: a method driven far outside
 what it was designed for) is restarted from its initial state with ``valid`` false, and
-:attr:`Estimator.restarts` counts it: the host sees a held estimate, never an exception.
+:attr:`Estimator.restarts` counts it: the host sees a held estimate, never an exception.  So is a
+filter whose inputs come back after a fault (held, clamped or not finite): what a burst of
+``1e300`` or a jump left in its state would otherwise keep ``valid`` false, or the estimate wrong,
+long after the inputs are right again; restarted, it recovers in its start-up time.
 
 What ``valid`` reports on top of an estimator's own flag is gated by :class:`ValidityGate`: not valid
 above ``valid_std_max`` of reported std, and only after ``valid_hold`` seconds without a break.
@@ -136,6 +139,12 @@ class Estimator(SampledModel):
         super().__init_subclass__(**kw)
         cls.output_names = ESTIMATOR_COMMON_OUTPUTS + tuple(cls.extra_outputs)
 
+    @classmethod
+    def unused_inputs(cls, parameters: dict) -> tuple:
+        """Inputs a configuration, given by its parameters (values by name, as an FMU's), never reads: a recorded
+        drive may lack them.  None by default."""
+        return ()
+
     def __init__(self, config=None, vehicle: VehicleParams | None = None):
         self.config = cfg = config or self.config_class()
         self.vehicle = vehicle or cfg.vehicle_params()
@@ -155,6 +164,13 @@ class Estimator(SampledModel):
         self.beta = self.vx = self.vy = self.yaw_rate = 0.0
         self.beta_std = RESTART_STD            # the prior's: before the first estimate nothing is known
         self.valid = False
+        self._new_consistency()
+        self._init_filter()
+        self.restarts = 0
+        self._input_fault = False
+        self._out = self._pack()
+
+    def _new_consistency(self) -> None:
         cfg, names = self.config, self.input_names
         self._consistency = None
         if cfg.consistency_check and set(CONSISTENCY_INPUTS) <= set(names):
@@ -163,9 +179,18 @@ class Estimator(SampledModel):
                                                  cfg.consistency_tol)
             self._consistency_ix = tuple(names.index(n) for n in CONSISTENCY_INPUTS)
             self._consistency_count = 0
+
+    def _start_over(self, consistency: bool) -> None:
+        """The filter (and, with ``consistency``, the consistency check) from its initial state, the speed and yaw
+        rate held, ``valid`` false until the method has converged again."""
+        held = (self.vx, self.yaw_rate)
         self._init_filter()
-        self.restarts = 0
-        self._out = self._pack()
+        if consistency:
+            self._new_consistency()
+        self.beta, self.vy, self.beta_std = 0.0, 0.0, RESTART_STD
+        self.vx, self.yaw_rate = held
+        self.valid = False
+        self.restarts += 1
 
     def _init_filter(self) -> None:
         """Reset the method's own state (override)."""
@@ -197,8 +222,13 @@ class Estimator(SampledModel):
         return out if self._gate is None else self._gate(self, out)
 
     def _guarded_sample(self, u: list) -> None:
-        """:meth:`_sample`, restarting the filter if it fails numerically (module docstring)."""
-        held = (self.vx, self.yaw_rate)
+        """:meth:`_sample`, restarting the filter if it fails numerically or when its inputs come back after a
+        fault (module docstring)."""
+        if self.held_inputs:
+            self._input_fault = True
+        elif self._input_fault:                # the inputs are good again: what the fault left in the state goes
+            self._input_fault = False
+            self._start_over(consistency=True)
         try:
             self._sample(u)
             ok = math.isfinite(self.beta + self.beta_std + self.vx + self.vy + self.yaw_rate + sum(self._extras()))
@@ -216,11 +246,7 @@ class Estimator(SampledModel):
             if not check.consistent:
                 self.valid = False
         if not ok:
-            self._init_filter()                # sideslip back to its prior, speed and yaw rate held
-            self.beta, self.vy, self.beta_std = 0.0, 0.0, RESTART_STD
-            self.vx, self.yaw_rate = held
-            self.valid = False
-            self.restarts += 1
+            self._start_over(consistency=False)   # sideslip back to its prior, speed and yaw rate held
 
     def step(self, h: float, *u) -> None:
         """Advance by ``h`` [s] with the latest inputs ``u`` (``input_names`` order)."""
@@ -236,6 +262,7 @@ class Estimator(SampledModel):
                 self._guarded_sample(latched)
             else:
                 self.valid = False             # hold the estimate on bad inputs
+                self._input_fault = True
             ran = True
             for i in self._events:             # an event is used by one sample only
                 latched[i] = 0.0

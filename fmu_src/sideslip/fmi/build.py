@@ -25,8 +25,10 @@ FMU would import from another FMU's unpacked folder, which some hosts delete.
 """
 from __future__ import annotations
 
+import compileall
 import hashlib
 import os
+import py_compile
 import re
 import shutil
 import site
@@ -43,7 +45,9 @@ from .catalogue import CATALOGUE, fmu_spec
 
 __all__ = ["build_fmus", "ensure_fmus", "DEFAULT_OUT", "compile_shim", "python_config", "BuildError"]
 
-DEFAULT_OUT = Path("build") / "fmus"
+DEFAULT_OUT = Path(os.environ.get("SIDESLIP_FMU_DIR") or Path("build") / "fmus")
+"""Where the FMUs are built and found by default: ``$SIDESLIP_FMU_DIR``, else ``build/fmus`` under the working
+folder (a notebook or a script in another folder can share one build through the variable)."""
 SHIM_SOURCE = PACKAGE_DIR / "fmi" / "native" / "fmi2_status_shim.c"
 PLATFORMS = {"linux64": ".so", "win64": ".dll"}
 """The binaries the shim replaces: platform folder -> file extension."""
@@ -178,6 +182,16 @@ def _install_shim(fmu: Path, model_id: str, shim: Path, platform: str) -> None:
     tmp.replace(fmu)
 
 
+def _add_bytecode(fmu: Path, pkg: Path) -> None:
+    """Add the bundled package's bytecode to the FMU's ``resources/``, validated by the sources' hashes (a host
+    that unpacks an FMU gives its files new times): a host on this Python version loads it instead of compiling
+    every module at each instantiation, which was about half of an instantiation's time; others ignore it."""
+    compileall.compile_dir(pkg, quiet=1, invalidation_mode=py_compile.PycInvalidationMode.CHECKED_HASH)
+    with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as z:
+        for pyc in sorted(pkg.rglob("__pycache__/*.pyc")):
+            z.write(pyc, f"resources/{pyc.relative_to(pkg.parent).as_posix()}")
+
+
 def _guid(fmu: Path) -> str:
     """The GUID in an FMU's modelDescription.xml."""
     import xml.etree.ElementTree as ET
@@ -212,6 +226,7 @@ def _build_one(name: str, out_dir: Path, shims: tuple[str, ...], tag: str) -> Pa
         fmu = Path(FmuBuilder.build_FMU(script, dest=staging, project_files=[pkg, reqs],
                                         needsExecutionTool=False, canGetAndSetFMUstate=True,
                                         canSerializeFMUstate=True))
+        _add_bytecode(fmu, pkg)
         # compiled per FMU (it checks the FMU's own GUID), the platforms' compilers side by side: they are
         # most of a build's time
         guid = _guid(fmu)
@@ -289,15 +304,23 @@ def build_fmus(names=None, out_dir: Path | str = DEFAULT_OUT, force: bool = Fals
             for platform in PLATFORMS:
                 log(f"{platform} status shim compiled with {_find_cc(platform)} for each FMU" if platform in shims
                     else _NO_COMPILER[platform])
-            for name in todo:
-                try:
-                    fmu = _build_one(name, out_dir, shims, digests[name][:12])
-                except BuildError:
-                    raise
-                except Exception as exc:
-                    raise BuildError(f"building {name} failed: {exc!r}") from exc
-                (out_dir / f"{name}.fmu.sha256").write_text(digests[name] + "\n")
-                log(f"{name}: built {fmu}")
+            from ..progress import progress_bar
+
+            with progress_bar(len(todo), "build", "FMUs", enabled=None if log is print else False) as bar:
+                for name in todo:
+                    bar.set_postfix_str(name)
+                    try:
+                        fmu = _build_one(name, out_dir, shims, digests[name][:12])
+                    except BuildError:
+                        raise
+                    except Exception as exc:
+                        raise BuildError(f"building {name} failed: {exc!r}") from exc
+                    (out_dir / f"{name}.fmu.sha256").write_text(digests[name] + "\n")
+                    if log is print and not bar.disable:
+                        bar.write(f"{name}: built {fmu}")          # above the bar, not through it
+                    else:
+                        log(f"{name}: built {fmu}")
+                    bar.update()
     return [out_dir / f"{name}.fmu" for name in names]
 
 

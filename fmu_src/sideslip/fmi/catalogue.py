@@ -17,6 +17,8 @@ import importlib
 from dataclasses import dataclass
 from functools import cached_property
 
+from ..params import one_of
+
 __all__ = ["FmuSpec", "CATALOGUE", "ROLES", "PLANT_SIDE", "PLANT_PACKAGE", "HELD_OUTPUT", "fmu_spec", "fmu_names"]
 
 HELD_OUTPUT = "inputs_held"
@@ -90,6 +92,17 @@ class FmuSpec:
     def outputs(self) -> tuple:
         """Output port names, in value-reference order: the model's, then :data:`HELD_OUTPUT`."""
         return tuple(self.model_class.output_names) + (HELD_OUTPUT,)
+
+    @cached_property
+    def parameter_names(self) -> tuple:
+        """Every parameter the FMU declares: the configuration's fields, then their numeric stand-ins."""
+        from ..params import ChoiceIndices, declared_fields
+
+        cls = self.config_class
+        names = [f.name for f, info in declared_fields(cls) if info.fmu]
+        for group in (ChoiceIndices(cls), *getattr(cls, "parameter_groups", tuple)()):
+            names += [name for name, _, _ in group.parameters()]
+        return tuple(names)
 
     def numeric_parameters(self, params: dict) -> dict:
         """``params`` (values by parameter name, Strings among them) as Real, Integer and Boolean
@@ -229,7 +242,7 @@ def fmu_spec(name: str) -> FmuSpec:
     try:
         return CATALOGUE[name]
     except KeyError:
-        raise KeyError(f"unknown FMU {name!r}; known: {', '.join(sorted(CATALOGUE))}") from None
+        raise KeyError(one_of(name, CATALOGUE, "FMU")) from None
 
 
 def fmu_names(role: str | None = None) -> list[str]:

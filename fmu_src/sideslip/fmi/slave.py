@@ -413,7 +413,7 @@ class SideslipSlave(Fmi2Slave):
     # ------------------------------------------------------------------ logging
     def _log(self, msg: str, status=_OK) -> None:
         # pythonfmu passes the text as a printf format: never let a '%' through
-        self.log(msg.replace("%", " percent"), status)
+        self.log(msg.replace(" %", "%").replace("%", " percent"), status)
 
     def _log_once(self, key, msg: str, status=_WARNING) -> None:
         if key not in self._warned:

@@ -437,6 +437,19 @@ def with_params(rows, params: dict | None) -> tuple:
     return tuple(out)
 
 
+def _simulated_seconds(case: Case) -> float:
+    """How long a case drives [s] (the progress bar's measure of work)."""
+    from .real_drive import SLICES
+
+    if case.scenario in SLICES:
+        t0, t1 = SLICES[case.scenario]
+        return t1 - t0
+    try:
+        return get_scenario(case.scenario).duration
+    except ValueError:                 # a recorded drive: a log's path
+        return 60.0
+
+
 def run_benchmark(case_list, rows=ROWS, workers: int = 2, scheduler=None, progress: bool = True) -> list[dict]:
     """Run cases in parallel on :mod:`sideslip.studies.jobs`, one job per scenario and plant; results in the
     cases' order, with traces kept for seed 0."""
@@ -445,6 +458,7 @@ def run_benchmark(case_list, rows=ROWS, workers: int = 2, scheduler=None, progre
         by_scenario.setdefault((c.scenario, c.plant), []).append(c)
     done = {}
     jobs = [(group, tuple(rows)) for group in by_scenario.values()]
-    for group in map_ordered(_scenario_job, jobs, workers, scheduler, progress, "scenarios"):
+    for group in map_ordered(_scenario_job, jobs, workers, scheduler, progress, "benchmark",
+                             weight=lambda job: sum(_simulated_seconds(c) for c in job[0]), unit="sim s"):
         done.update({r["case"]: r for r in group})
     return [done[c.name] for c in case_list]

@@ -12,39 +12,17 @@ interrupted study already finished, so a study resumes where it stopped.
 from __future__ import annotations
 
 import csv
-import sys
-import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
-__all__ = ["parallel_map", "map_ordered", "CsvLog", "ProgressBar"]
-
-
-class ProgressBar:
-    """A one-line text progress bar on a stream (stderr by default), with rate and remaining time."""
-
-    def __init__(self, total: int, label: str = "", stream=None, width: int = 30):
-        self.total, self.label, self.width = max(total, 1), label, width
-        self.stream = stream or sys.stderr
-        self.done, self.t0 = 0, time.perf_counter()
-
-    def update(self, n: int = 1) -> None:
-        self.done += n
-        elapsed = time.perf_counter() - self.t0
-        frac = self.done / self.total
-        eta = elapsed / frac - elapsed if frac > 0 else float("nan")
-        bar = "#" * int(frac * self.width)
-        self.stream.write(f"\r{self.label} [{bar:<{self.width}}] {self.done}/{self.total} "
-                          f"{elapsed:6.1f} s elapsed, {eta:6.1f} s left")
-        if self.done >= self.total:
-            self.stream.write("\n")
-        self.stream.flush()
+__all__ = ["parallel_map", "map_ordered", "CsvLog"]
 
 
 def parallel_map(fn: Callable, items: Iterable, workers: int = 2, scheduler: str | None = None,
-                 progress: bool = True, label: str = "runs") -> Iterator[tuple]:
+                 progress: bool = True, label: str = "runs", weight: Callable | None = None,
+                 unit: str = "runs") -> Iterator[tuple]:
     """Yield ``(item, fn(item))`` in completion order.
 
     Parameters
@@ -58,27 +36,45 @@ def parallel_map(fn: Callable, items: Iterable, workers: int = 2, scheduler: str
     scheduler : str, optional
         Address of a Dask distributed scheduler (``tcp://host:8786``), or a ``distributed.Client``.
     progress : bool
-        Show a progress bar on stderr.
+        Show a progress bar on stderr when it is a terminal (:func:`sideslip.progress.progress_bar`).
+    weight : callable, optional
+        An item's share of the bar (e.g. its simulated seconds, in ``unit``); by default each item counts one.
     """
+    from ..progress import progress_bar
+
     items = list(items)
-    bar = ProgressBar(len(items), label) if progress and items else None
+    weigh = weight or (lambda item: 1)
+    bar = progress_bar(sum(weigh(i) for i in items), label, unit) if progress and items else None
     if scheduler is not None:
-        yield from _dask_map(fn, items, scheduler, bar)
+        try:
+            for item, result in _dask_map(fn, items, scheduler):
+                if bar:
+                    bar.update(weigh(item))
+                yield item, result
+        finally:
+            if bar:
+                bar.close()
         return
     if workers <= 1 or len(items) == 1:
         for item in items:
             result = fn(item)
             if bar:
-                bar.update()
+                bar.update(weigh(item))
             yield item, result
+        if bar:
+            bar.close()
         return
     with ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=get_context("spawn")) as pool:
         futures = {pool.submit(fn, item): item for item in items}
-        for fut in as_completed(futures):
-            result = fut.result()
+        try:
+            for fut in as_completed(futures):
+                result = fut.result()
+                if bar:
+                    bar.update(weigh(futures[fut]))
+                yield futures[fut], result
+        finally:
             if bar:
-                bar.update()
-            yield futures[fut], result
+                bar.close()
 
 
 class _Indexed:
@@ -92,16 +88,17 @@ class _Indexed:
 
 
 def map_ordered(fn: Callable, items: Iterable, workers: int = 2, scheduler: str | None = None,
-                progress: bool = False, label: str = "runs") -> list:
+                progress: bool = True, label: str = "runs", weight: Callable | None = None, unit: str = "runs") -> list:
     """``[fn(item) for item in items]`` computed by :func:`parallel_map` (results in the items' order)."""
     pairs = list(enumerate(items))
     results = [None] * len(pairs)
-    for (i, _), result in parallel_map(_Indexed(fn), pairs, workers, scheduler, progress, label):
+    pair_weight = None if weight is None else (lambda pair: weight(pair[1]))
+    for (i, _), result in parallel_map(_Indexed(fn), pairs, workers, scheduler, progress, label, pair_weight, unit):
         results[i] = result
     return results
 
 
-def _dask_map(fn, items, scheduler, bar):
+def _dask_map(fn, items, scheduler):
     from distributed import Client, as_completed as dask_completed
 
     client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
@@ -109,8 +106,6 @@ def _dask_map(fn, items, scheduler, bar):
         futures = client.map(fn, items, pure=False)
         index = {f.key: i for i, f in enumerate(futures)}
         for fut, result in dask_completed(futures, with_results=True):
-            if bar:
-                bar.update()
             yield items[index[fut.key]], result
     finally:
         if client is not scheduler:

@@ -24,7 +24,7 @@ import numpy as np
 from ..units import DEG, wrap_angle
 
 __all__ = ["MOVING_SPEED", "scored_samples", "valid_share", "score", "estimate_metrics", "scenario_summary",
-           "format_table", "trajectory_difference"]
+           "format_table", "command_metrics", "format_command_table", "trajectory_difference"]
 
 MOVING_SPEED = 2.0
 """Speed [m/s] below which sideslip errors are not scored (undefined at standstill)."""
@@ -151,6 +151,55 @@ def scenario_summary(results, plant: str = "plant", min_speed: float = MOVING_SP
             "duration": float(results["time"][-1])}
 
 
+def command_metrics(results, limit: float, controller: str = "controller", plant: str = "plant",
+                    min_speed: float = MOVING_SPEED) -> dict:
+    """How a yaw-moment controller did in a run, while the car moves faster than ``min_speed``.
+
+    Parameters
+    ----------
+    results : Results or mapping of arrays
+        With ``plant.{vx,vy,yaw_rate,Mz_act}`` and ``controller.{Mz_cmd,yaw_rate_ref}``.
+    limit : float
+        The yaw moment the motors give [N m] (:func:`sideslip.control.base.yaw_moment_limit`).
+
+    Returns
+    -------
+    dict
+        ``rms_yaw_rate_error_deg_s`` and ``max_yaw_rate_error_deg_s`` (the plant's yaw rate against the
+        controller's own reference), ``rms_Mz_cmd`` and ``max_abs_Mz_cmd`` [N m], ``effort_Nms``
+        (``int |Mz_act| dt``), ``saturated_pct`` (share of samples at 99.9 % of ``limit``), ``limit``.
+    """
+    mask = scored_samples(_speed(results, plant), min_speed=min_speed)
+    t = np.asarray(results["time"])
+    err = (np.asarray(results[f"{plant}.yaw_rate"]) - np.asarray(results[f"{controller}.yaw_rate_ref"]))[mask] * DEG
+    cmd = np.asarray(results[f"{controller}.Mz_cmd"])[mask]
+    act = np.abs(np.asarray(results[f"{plant}.Mz_act"]))
+    dt = float(t[1] - t[0]) if len(t) > 1 else 0.0
+    rms = (lambda x: float(np.sqrt(np.mean(x ** 2))) if x.size else 0.0)   # noqa: E731
+    return {"rms_yaw_rate_error_deg_s": rms(err), "max_yaw_rate_error_deg_s": float(np.max(np.abs(err), initial=0.0)),
+            "rms_Mz_cmd": rms(cmd), "max_abs_Mz_cmd": float(np.max(np.abs(cmd), initial=0.0)),
+            "effort_Nms": float(act.sum() * dt),
+            "saturated_pct": 100.0 * float(np.mean(np.abs(cmd) >= 0.999 * limit)) if cmd.size else 0.0,
+            "limit": float(limit)}
+
+
+def format_command_table(name: str, m: dict) -> str:
+    """One controller's :func:`command_metrics` as a text table."""
+    rows = [("controller", "yaw-rate error RMS [deg/s]", "max [deg/s]", "Mz_cmd RMS [N m]", "max [N m]",
+             "effort [N m s]", "saturated [%]"),
+            (name, f"{m['rms_yaw_rate_error_deg_s']:.3f}", f"{m['max_yaw_rate_error_deg_s']:.2f}",
+             f"{m['rms_Mz_cmd']:.0f}", f"{m['max_abs_Mz_cmd']:.0f}", f"{m['effort_Nms']:.0f}",
+             f"{m['saturated_pct']:.1f}")]
+    return _columns(rows)
+
+
+def _columns(rows) -> str:
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths))) for r in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
 def format_table(per_estimator: dict) -> str:
     """Text table of sideslip (and other) errors per estimator."""
     rows = [("estimator", "beta RMS [deg]", "beta max [deg]", "eq48 max [%]", "eq48 mean [%]", "vy RMS [m/s]",
@@ -162,10 +211,7 @@ def format_table(per_estimator: dict) -> str:
                      f"{m.get('vy_hat', {}).get('rms', float('nan')):.3f}",
                      f"{m.get('yaw_rate_hat', {}).get('rms', float('nan')):.3f}",
                      f"{100 * m.get('valid', float('nan')):.1f}", f"{100 * m['coverage']:.1f}"))
-    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths))) for r in rows]
-    lines.insert(1, "  ".join("-" * w for w in widths))
-    return "\n".join(lines)
+    return _columns(rows)
 
 
 def trajectory_difference(reference, other) -> dict:

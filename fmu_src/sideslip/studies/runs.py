@@ -21,7 +21,7 @@ from ..cosim.results import Results
 from ..fmi.build import DEFAULT_OUT, ensure_fmus
 from ..scenarios import Scenario, get_scenario, scenario_params
 from .jobs import map_ordered
-from .metrics import estimate_metrics, format_table, scenario_summary
+from .metrics import command_metrics, estimate_metrics, format_command_table, format_table, scenario_summary
 
 __all__ = ["run_scenario", "run_jobs", "run_library", "RunOutput"]
 
@@ -34,15 +34,20 @@ class RunOutput:
     metrics: dict
 
     def table(self) -> str:
-        """Metrics table of the estimators (empty string without estimators)."""
-        return format_table(self.metrics["estimators"]) if self.metrics["estimators"] else ""
+        """Metrics tables of the estimators and the controller (empty string without either)."""
+        tables = [format_table(self.metrics["estimators"])] if self.metrics["estimators"] else []
+        if "controller" in self.metrics:
+            c = self.metrics["controller"]
+            tables.append(format_command_table(f"{c['name']} ({c['source']})", c))
+        return "\n\n".join(tables)
 
 
 def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None = None,
                  out_dir: str | Path | None = None, duration: float | None = None, step: float = 1e-3,
                  record_every: int = 1, fmu_dir: str | Path = DEFAULT_OUT, params: dict | None = None,
                  overrides: dict | None = None, control_source: str | None = None, progress=None,
-                 master: str = "fmpy", scheme: str = "gauss-seidel") -> RunOutput:
+                 master: str = "fmpy", scheme: str = "gauss-seidel", window: tuple | None = None,
+                 formats: tuple = ("csv",)) -> RunOutput:
     """Run a scenario and (optionally) write ``results.csv``, ``metrics.json``, ``sideslip.png``.
 
     Parameters
@@ -67,6 +72,16 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
         only); both Jacobi, every step recorded, rows from ``t = step``.
     scheme : {"gauss-seidel", "jacobi"}
         Coupling scheme of the fmpy master (libcosim is always Jacobi).
+    window : (float, float), optional
+        Time span [s] the metrics and the plot cover (the run and ``results.csv`` cover the whole duration).
+    formats : tuple of {"csv", "mf4"}
+        The files of the results: ``results.csv`` (with ``results.csv.units.json``) and ``results.mf4`` (MDF4,
+        asammdf).
+
+    Notes
+    -----
+    A run with a controller adds its figures (:func:`~sideslip.studies.metrics.command_metrics`) to
+    ``metrics["controller"]`` and a panel to the plot.
     """
     sc = get_scenario(scenario, **(overrides or {})) if isinstance(scenario, str) else scenario
     comps, conns = scenario_components(sc, estimators, controller, params, control_source)
@@ -87,25 +102,39 @@ def run_scenario(scenario: str | Scenario, estimators=(), controller: str | None
     else:
         raise ValueError(f"master must be 'fmpy', 'libcosim' or 'omsimulator', got {master!r}")
     wall = time.perf_counter() - t0
+    scored = res.window(*window) if window else res
     metrics = {"scenario": {"name": sc.name, "description": sc.description, "source": sc.source,
                             "vehicle": sc.vehicle, "maneuver": sc.maneuver, "road_mu": sc.road_mu,
                             "road_bank": sc.road_bank, "notes": list(sc.notes)},
-               "summary": scenario_summary(res),
-               "estimators": {e: estimate_metrics(res, e) for e in estimators},
+               "summary": scenario_summary(scored),
+               "estimators": {e: estimate_metrics(scored, e) for e in estimators},
+               "window": list(window) if window else None,
                "master": res.meta["master"], "scheme": res.meta["scheme"],
                "wall_time": wall, "simulation_wall_time": res.meta["wall_time"],
                "real_time_factor": res.meta["real_time_factor"], "us_per_step": res.meta["us_per_step"],
                "step": step, "components": res.meta["components"], "connections": res.meta["connections"],
                "unconnected_inputs": res.meta["unconnected_inputs"],
                "messages": res.meta["messages"][:200]}
+    if controller:
+        from ..control.base import yaw_moment_limit
+        from ..vehicles import load_vehicle
+
+        limit = yaw_moment_limit(load_vehicle(sc.vehicle, sc.vehicle_overrides))
+        metrics["controller"] = {"name": controller, "source": control_source or (estimators[0] if estimators
+                                                                                   else "truth"),
+                                 **command_metrics(scored, limit)}
     if out_dir is not None:
         from .plots import plot_sideslip
 
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        res.to_csv(out / "results.csv")
+        if "csv" in formats:
+            res.to_csv(out / "results.csv")
+        if "mf4" in formats:
+            res.to_mdf(out / "results.mf4")
         (out / "metrics.json").write_text(json.dumps(metrics, indent=2))
-        plot_sideslip(res, list(estimators), out / "sideslip.png", title=f"{sc.name}: {sc.description}")
+        plot_sideslip(scored, list(estimators), out / "sideslip.png", title=f"{sc.name}: {sc.description}",
+                      controller="controller" if controller else None)
     return RunOutput(res, metrics)
 
 

@@ -17,6 +17,7 @@ from ..cosim.assembly import scenario_components
 from ..cosim.master import CoSimulation
 from ..fmi.build import DEFAULT_OUT
 from ..fmi.catalogue import fmu_names, fmu_spec
+from ..progress import progress_bar
 from ..scenarios import get_scenario
 
 __all__ = ["run_bench", "format_bench"]
@@ -24,8 +25,10 @@ __all__ = ["run_bench", "format_bench"]
 BENCH_SCENARIO = "park2018_case2"
 
 
-def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEFAULT_OUT, repeats: int = 3) -> dict:
-    """Benchmark every FMU of the catalogue and the driver + plant + sensors loop.
+def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEFAULT_OUT, repeats: int = 3,
+              progress: bool = True) -> dict:
+    """Benchmark every FMU of the catalogue and the driver + plant + sensors loop (a progress bar on stderr when it
+    is a terminal and ``progress``).
 
     Returns
     -------
@@ -36,6 +39,8 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
     sc = dataclasses.replace(get_scenario(scenario), estimator_profile=1)
     step = 1e-3
     out = {"scenario": scenario, "step": step, "duration": duration, "fmus": {}, "closed_loop": {}}
+    loops = repeats * (3 + len(fmu_names("estimator")) + len(fmu_names("controller")))
+    bar = progress_bar(loops * duration, "bench", "sim s", enabled=None if progress else False)
     # closed loop, unprofiled: best of `repeats` runs (the machine is shared)
     rtfs = []
     for _ in range(repeats):
@@ -43,6 +48,7 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
         with CoSimulation(comps, conns, step=step, fmu_dir=fmu_dir) as sim:
             res = sim.run(duration)
         rtfs.append(res.meta["real_time_factor"])
+        bar.update(duration)
     best = max(rtfs)
     out["closed_loop"] = {"components": [c.name for c in comps], "real_time_factor": best,
                           "us_per_step": step / best * 1e6, "all_real_time_factors": rtfs}
@@ -57,6 +63,7 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
         for _ in range(repeats):
             with CoSimulation(comps, conns, step=step, fmu_dir=fmu_dir) as sim:
                 prof = sim.run(duration, profile=True).meta["profile"]
+            bar.update(duration)
             for inst, fmu in names:
                 blocks = sorted(prof[inst])
                 runs.setdefault(fmu, []).append(statistics.median(blocks))
@@ -72,6 +79,7 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
     for _ in range(repeats):
         with CoSimulation(third, conns, step=step, fmu_dir=fmu_dir) as sim:
             blocks = sorted(sim.run(duration, profile=True).meta["profile"]["plant"])
+        bar.update(duration)
         runs.setdefault("CommonRoadPlant", []).append(statistics.median(blocks))
         p90.setdefault("CommonRoadPlant", []).append(blocks[int(0.9 * (len(blocks) - 1))])
     for name in fmu_names("estimator"):
@@ -81,6 +89,7 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
     for fmu, medians in runs.items():
         best = min(range(len(medians)), key=medians.__getitem__)
         out["fmus"][fmu] = {"median_us": medians[best], "p90_us": p90[fmu][best], "all_run_medians_us": medians}
+    bar.close()
     return out
 
 

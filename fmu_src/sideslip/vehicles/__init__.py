@@ -21,10 +21,12 @@ from functools import lru_cache
 from pathlib import Path
 
 from ..constants import GRAVITY
-from ..params import ParameterError, ParamGroup, build, check, format_assignments, param, parse_assignments
+from ..params import (ParameterError, ParamGroup, build, check, did_you_mean, format_assignments, param,
+                      parse_assignments)
 from ..plant.tires import MagicFormula
 
-__all__ = ["VehicleParams", "VehicleConfig", "load_vehicle", "vehicle_names", "vehicle_source"]
+__all__ = ["VehicleParams", "VehicleConfig", "load_vehicle", "vehicle_names", "vehicle_source", "resolve_vehicle",
+           "DERIVED", "derived"]
 
 _DIR = Path(__file__).parent
 
@@ -208,9 +210,24 @@ class VehicleParams:
         items = parse_assignments(overrides, "vehicle_overrides") if isinstance(overrides, str) else dict(overrides)
         if not items:
             return self
-        base = dataclasses.asdict(self)
-        base.update(items)
-        return build(VehicleParams, base, prefix="vehicle.")
+        return build(VehicleParams, derived(dataclasses.asdict(self), items), prefix="vehicle.")
+
+
+DERIVED = {"m_s": "m - m_uf - m_ur", "l_fs": "l_f + (l_fs - l_f) of the base", "l_rs": "l_r + (l_rs - l_r) of the base"}
+"""Values that follow the ones they derive from when a file with a ``base`` (or an override) changes those and
+does not give them: the sprung mass follows the total mass (the unsprung masses kept), the sprung-mass CG keeps its
+distance from the vehicle's CG."""
+
+
+def derived(base: dict, given: dict) -> dict:
+    """``base`` updated by ``given``, with the :data:`DERIVED` values ``given`` leaves out following what it changes."""
+    out = {**base, **given}
+    if "m" in given and "m_s" not in given and "m_s" in base:
+        out["m_s"] = float(out["m"]) - float(out["m_uf"]) - float(out["m_ur"])
+    for axle in ("f", "r"):
+        if f"l_{axle}" in given and f"l_{axle}s" not in given and f"l_{axle}s" in base:
+            out[f"l_{axle}s"] = float(out[f"l_{axle}"]) + float(base[f"l_{axle}s"]) - float(base[f"l_{axle}"])
+    return out
 
 
 def _parse(text: str, where: str) -> dict:
@@ -235,16 +252,27 @@ def vehicle_names() -> list[str]:
     return sorted(_BUNDLED)
 
 
-@lru_cache(maxsize=32)
 def _load_file(name_or_path: str, _chain: tuple = ()) -> tuple[str, dict, dict]:
-    """``(name, params, source)`` of a bundled name or a TOML path, a ``base`` merged in."""
+    """``(name, params, source)`` of a bundled name or a TOML path, a ``base`` merged in (cached while the file
+    is unchanged: an edited file is read again)."""
+    try:
+        stat = Path(name_or_path).stat() if name_or_path not in _BUNDLED else None
+    except OSError:
+        stat = None
+    return _load_cached(name_or_path, _chain, (stat.st_mtime_ns, stat.st_size) if stat else None)
+
+
+@lru_cache(maxsize=32)
+def _load_cached(name_or_path: str, _chain: tuple, _version) -> tuple[str, dict, dict]:
     if name_or_path in _BUNDLED:
         data, name, folder = _BUNDLED[name_or_path], name_or_path, _DIR
     else:
         path = Path(name_or_path)
         if path.suffix != ".toml" or not path.is_file():
             raise ParameterError("vehicle", name_or_path,
-                                 "one of " + ", ".join(vehicle_names()) + " or the path of a vehicle TOML file")
+                                 "one of " + ", ".join(vehicle_names()) + did_you_mean(name_or_path, vehicle_names())
+                                 + " or the path of a vehicle TOML file" + ("" if path.suffix != ".toml" else
+                                                                            f" ({path} does not exist)"))
         try:
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:
@@ -256,7 +284,7 @@ def _load_file(name_or_path: str, _chain: tuple = ()) -> tuple[str, dict, dict]:
         if not isinstance(base, str) or base in _chain + (name_or_path,):
             raise ParameterError("vehicle", name_or_path, "a 'base' naming another vehicle (no cycle)")
         resolved = base if base in _BUNDLED else str(folder / base)
-        params = {**_load_file(resolved, _chain + (name_or_path,))[1], **params}
+        params = derived(_load_file(resolved, _chain + (name_or_path,))[1], params)
     return name, params, data.get("source", {})
 
 
@@ -278,6 +306,42 @@ def load_vehicle(name_or_path: str, overrides: str | dict = "") -> VehicleParams
                              "(or a top-level base = \"<bundled vehicle or file>\" to inherit them)")
     vehicle = build(VehicleParams, {"name": name, **params}, prefix="vehicle.")
     return vehicle.with_overrides(overrides)
+
+
+def resolve_vehicle(name_or_path: str) -> tuple[VehicleParams, dict]:
+    """The vehicle of a name or file and where each value came from.
+
+    Returns
+    -------
+    VehicleParams, dict
+        The validated vehicle (as :func:`load_vehicle`) and ``{field: origin}``, the origin one of
+        ``"file <path>"``, ``"base <name>"`` (inherited, through every level) or ``"derived: <rule>"``.
+
+    Raises
+    ------
+    ParameterError
+        As :func:`load_vehicle`.
+    """
+    vehicle = load_vehicle(name_or_path)
+    return vehicle, _origins(name_or_path)
+
+
+def _origins(name_or_path: str) -> dict:
+    if name_or_path in _BUNDLED:
+        data, folder, label = _BUNDLED[name_or_path], _DIR, f"bundled {name_or_path}"
+    else:
+        path = Path(name_or_path)
+        data, folder, label = _parse(path.read_text(encoding="utf-8"), name_or_path), path.parent, f"file {path}"
+    own = {k: label for k in data["params"]}
+    base = data.get("base")
+    if base is None:
+        return own
+    inherited = _origins(base if base in _BUNDLED else str(folder / base))
+    for name, rule in DERIVED.items():
+        source = "m" if name == "m_s" else name[:3]
+        if source in own and name not in own:
+            own[name] = f"derived: {rule}"
+    return {**{k: (v if v.startswith("derived") else f"base {base}") for k, v in inherited.items()}, **own}
 
 
 def vehicle_source(name_or_path: str) -> dict:

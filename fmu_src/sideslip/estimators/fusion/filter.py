@@ -6,6 +6,7 @@ from collections import deque
 
 import numpy as np
 
+from ...params import parse_bool
 from ...signals import WHEEL_SPEEDS_M
 from ..base import Estimator, ValidityGate, beta_std, input_enum
 from ..delay import DelayLine, GpsLatency
@@ -28,6 +29,10 @@ _ONE = np.array([1.0])
 """The EKF's mode probabilities."""
 
 
+GNSS_INPUTS = ("gps_ve", "gps_vn", "gps_fresh", "gps_valid")
+"""The GNSS inputs: unread when ``use_gnss`` is false."""
+
+
 class SideslipFusion(Estimator):
     """GNSS / IMU / wheel-speed / steering fusion with a self-calibrating tire model
     (:mod:`sideslip.estimators.fusion`)."""
@@ -40,6 +45,11 @@ class SideslipFusion(Estimator):
     needs = ("the vehicle's geometry and mass roughly right; GNSS velocity for the best accuracy (without it the "
              "tire model, calibrated while GNSS was there, carries the estimate)")
     In = input_enum("In", input_names)
+
+    @classmethod
+    def unused_inputs(cls, parameters: dict) -> tuple:
+        """The GNSS inputs when ``use_gnss`` is false."""
+        return () if parse_bool("use_gnss", parameters.get("use_gnss", True)) else GNSS_INPUTS
 
     def _init_filter(self) -> None:
         cfg, ts, v = self.config, self.Ts, self.vehicle

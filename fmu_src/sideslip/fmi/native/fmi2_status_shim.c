@@ -57,6 +57,10 @@
  *     POOL_MAX of them; fmi2Instantiate takes one of the same resource location from there.  The
  *     host's name and callbacks are the new ones: the shim passes its own instance name to the
  *     host's logger, and the Python side's messages do not name the instance.
+ *  7. A freed instance stays freed.  fmi2FreeInstance looks the pointer up among the instances it
+ *     handed out (a short list under the pool's lock): freeing one twice, or a pointer that was
+ *     never an instance of this FMU, does nothing, and a freed instance kept for reuse refuses every
+ *     call until fmi2Instantiate hands it out again.
  *  5. Status.  Warnings are logged but do not change the returned status: hosts such as
  *     OMSimulator and fmusim stop on fmi2Warning, and the FMUs use warnings only for conditions
  *     they handle (a held or clamped input); errors still give fmi2Error.
@@ -202,6 +206,7 @@ typedef struct {
     char name[256];              /* instance name, for messages */
     char *location;              /* resource location the instance was made for (reuse, 6) */
     fmi2ValueReference renew;    /* the Python side's "_renew" variable (0: none) */
+    int pooled;                  /* freed by the host, kept for reuse (6): every call but a free is refused */
 } Shim;
 
 static fmi2Status renew_inner(Shim *s);
@@ -210,6 +215,15 @@ static fmi2Status renew_inner(Shim *s);
 static Shim *g_pool[POOL_MAX];
 static int g_pooled = 0;
 static shim_lock g_pool_lock = SHIM_LOCK_INIT;
+static Shim **g_live = NULL;      /* every instance handed out and not yet released (7) */
+static size_t g_n_live = 0, g_cap_live = 0;
+
+/* under g_pool_lock: the index of s among the live instances, or -1 */
+static long live_index(const Shim *s) {
+    for (size_t i = 0; i < g_n_live; i++)
+        if (g_live[i] == s) return (long)i;
+    return -1;
+}
 
 typedef struct {                 /* an FMU state handed to the host */
     unsigned magic;
@@ -608,6 +622,7 @@ static int all_ports(const Shim *s, const fmi2ValueReference vr[], size_t nvr, c
 }
 
 #define ALIVE(s) if (!(s)) return fmi2Error; \
+    if ((s)->pooled) return shim_error((s), "%sthe FMU instance was freed (fmi2FreeInstance)", ""); \
     if ((s)->dead) return shim_error((s), "%sthe FMU instance failed fatally before; only fmi2FreeInstance is possible", "");
 #define CALL(expr) Shim *s = (Shim *)c; ALIVE(s) s->worst = fmi2OK; fmi2Status st = (expr); return worst(s, st);
 
@@ -658,6 +673,7 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
         if (strcmp(g_pool[i]->location, location) == 0) {
             s = g_pool[i];
             g_pool[i] = g_pool[--g_pooled];
+            s->pooled = 0;
         }
     lock_give(&g_pool_lock);
     int reused = s != NULL;
@@ -687,6 +703,14 @@ FMI2_Export fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuT
             free(s);
             return NULL;
         }
+        lock_take(&g_pool_lock);
+        if (g_n_live == g_cap_live) {
+            size_t cap = g_cap_live ? 2 * g_cap_live : 16;
+            Shim **grown = (Shim **)realloc(g_live, cap * sizeof(Shim *));
+            if (grown) { g_live = grown; g_cap_live = cap; }
+        }
+        if (g_n_live < g_cap_live) g_live[g_n_live++] = s;
+        lock_give(&g_pool_lock);
     }
     query_layout(s);
     return s;
@@ -702,6 +726,11 @@ static void free_categories(Shim *s) {
 FMI2_Export void fmi2FreeInstance(fmi2Component c) {
     if (!c) return;
     Shim *s = (Shim *)c;
+    lock_take(&g_pool_lock);                       /* a second free, or a pointer never ours, is a no-op (7) */
+    long live = live_index(s);
+    int again = live < 0 || s->pooled;
+    lock_give(&g_pool_lock);
+    if (again) return;
     free_categories(s);
     s->logging_on = 0;
     if (!s->dead) {                                /* keep it for the next fmi2Instantiate (6) */
@@ -711,11 +740,18 @@ FMI2_Export void fmi2FreeInstance(fmi2Component c) {
         s->host.logger = NULL;
         lock_take(&g_pool_lock);
         int kept = st <= fmi2Warning && s->worst <= fmi2Warning && g_pooled < POOL_MAX;
-        if (kept) g_pool[g_pooled++] = s;
+        if (kept) {
+            s->pooled = 1;
+            g_pool[g_pooled++] = s;
+        }
         lock_give(&g_pool_lock);
         if (kept) return;
     }
     s->host.logger = NULL;
+    lock_take(&g_pool_lock);
+    live = live_index(s);
+    if (live >= 0) g_live[live] = g_live[--g_n_live];
+    lock_give(&g_pool_lock);
     p_fmi2FreeInstance(s->inner);
     free(s->kinds);
     free(s->location);

@@ -13,6 +13,7 @@ from ...plant.driver import Driver, DriverConfig
 from ...plant.loop import run_loop
 from ...plant.sensors import SensorConfig, SensorSuite
 from ...plant.vehicle import PlantConfig, VehiclePlant
+from ...scenarios import scenario_duration
 from ..accuracy import Case, Row, make_estimator, setup
 from ..jobs import map_ordered
 from .cases import DURATION, FMVSS_FAMILY, ControlCase, Source, scenario_mu, steer_times
@@ -140,7 +141,7 @@ def control_evaluation(cases, engine: str = "library", fmu_dir=DEFAULT_OUT, work
                   if c.source.estimator and c.source.controller != "StabilityController"}
         ensure_fmus(sorted(names | {DRIVER, PLANT, SENSORS}), fmu_dir)
     rows = map_ordered(run_control_case, [(c, engine, str(fmu_dir)) for c in cases], workers, scheduler, progress,
-                       "closed loops")
+                       "control", weight=lambda item: scenario_duration(item[0].scenario), unit="sim s")
     return [{"scenario": c.scenario, "condition": c.condition, "seed": c.seed, "source": c.source.label, **r}
             for c, r in zip(cases, rows)]
 
