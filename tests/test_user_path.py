@@ -168,7 +168,7 @@ def test_results_carry_units_into_pandas_csv_and_mdf(tmp_path):
     t = np.arange(5) * 0.1
     res = Results.from_columns({"time": t, "plant.beta": t * 0.01, "est.valid": np.ones(5, bool),
                                 "controller.Mz_cmd": t * 100}, {"master": "fmpy"})
-    pytest.importorskip("pandas")
+    pd = pytest.importorskip("pandas")
     frame = res.to_pandas()
     assert frame.attrs["units"]["plant.beta"] == "rad" and frame.attrs["units"]["controller.Mz_cmd"] == "N.m"
     assert frame.index.name == "time" and frame["plant.beta"].iloc[-1] == pytest.approx(0.004)
@@ -178,7 +178,8 @@ def test_results_carry_units_into_pandas_csv_and_mdf(tmp_path):
     mdf = asammdf.MDF(res.to_mdf(tmp_path / "r.mf4"))
     assert mdf.get("plant.beta").unit == "rad"
     np.testing.assert_array_equal(mdf.get("controller.Mz_cmd").samples, res["controller.Mz_cmd"])
-    assert len(res.window(0.1, 0.3)) >= 2
+    assert len(res.window(0.1, 0.3)["time"]) >= 2
+    assert pd.DataFrame(dict(res)).shape == (5, 4) and len(res) == 4
     with pytest.raises(ValueError, match="fewer than two samples"):
         res.window(5.0, 6.0)
 

@@ -38,6 +38,7 @@ from ..params import param
 from ..signals import LQR_OUTPUTS
 from ..vehicles import VehicleParams
 from .base import YawMomentConfig, YawMomentController, yaw_moment_limit
+from .feedforward import ScheduledFeedforward, first_order_lowpass, second_order_lowpass
 from .lqr import gain_schedule
 
 __all__ = ["PUBLISHED", "DRIVABLE", "LqrDycConfig", "LqrDycController", "yaw_moment_limit"]
@@ -85,11 +86,7 @@ class LqrDycController(YawMomentController):
         self.gains = gain_schedule(self.model, cfg.q_beta, cfg.q_gamma, cfg.q_N, cfg.v_min, cfg.v_max)
         self.use_ff = cfg.feedforward == 1 or (cfg.feedforward == 2 and not self.shaped)
         self.ff = None
-        if self.use_ff:
-            # python-control designs the feed-forward; imported only for it, as its import (about 2 s, with
-            # matplotlib and scipy.signal) would otherwise be most of every controller FMU's instantiation
-            from .feedforward import ScheduledFeedforward, first_order_lowpass, second_order_lowpass
-
+        if self.use_ff:                 # designed only when used: python-control's import takes about 2 s
             lowpass = second_order_lowpass(cfg.f_ff) if self.shaped else first_order_lowpass(cfg.tau_ff)
             self.ff = ScheduledFeedforward(self.model, cfg.tau_beta, lowpass, self.Ts, cfg.v_min, cfg.v_max)
         self.reset()

@@ -27,7 +27,9 @@ filtered steering - zero in a steady steer, whatever the jump - rather than thro
 state built for another speed.
 
 python-control does the algebra (``minreal`` cancels the shared polynomial) and SciPy the
-discretisation, by the bilinear (Tustin) map rather than the zero-order hold: the filter is fast
+discretisation (both imported in the functions that use them: an FMU imports every module it carries
+when it is instantiated, and python-control's import, about 2 s, is needed only where a feed-forward is
+designed), by the bilinear (Tustin) map rather than the zero-order hold: the filter is fast
 next to its reference, and the ZOH filter's samples, held by the plant for a whole step, miss the
 target.  On the SUV at 80 km/h with a 0.7 Hz steer (1 ms), the linear model's sideslip deviates
 from ``G_beta delta`` by 9.4 / 2.3 / 0.46 % of its peak with Tustin for ``tau_ff`` = 20 / 5 / 1 ms,
@@ -41,9 +43,7 @@ import math
 import warnings
 from functools import lru_cache
 
-import control
 import numpy as np
-import scipy.signal
 
 from ..bicycle import BicycleModel
 from .schedule import SpeedTable, speed_grid
@@ -58,6 +58,8 @@ def sideslip_responses(model: BicycleModel, vx: float) -> tuple[control.Transfer
     Written from ``(sI - A)^-1 B`` by Cramer's rule rather than ``ss2tf``, whose round-off
     leaves a spurious ``1e-15 s`` in the numerator of ``G_12`` that spoils the division of eq 24.
     """
+    import control
+
     a, b = model.matrices(vx)
     den = [1.0, -(a[0, 0] + a[1, 1]), a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]]
     g11 = control.tf([b[0, 0], a[0, 1] * b[1, 0] - a[1, 1] * b[0, 0]], den)
@@ -67,11 +69,15 @@ def sideslip_responses(model: BicycleModel, vx: float) -> tuple[control.Transfer
 
 def reference_sideslip(model: BicycleModel, vx: float, tau_beta: float) -> control.TransferFunction:
     """``G_beta`` of eq 21: the steady-state sideslip gain through the lag ``1 / (1 + tau_beta s)``."""
+    import control
+
     return control.tf([model.steady_state_gains(vx)[0]], [tau_beta, 1.0])
 
 
 def eq24_numerator(model: BicycleModel, vx: float, tau_beta: float) -> np.ndarray:
     """``N(s)`` with ``G_ff = N(s) / (1 + tau_beta s)`` (eq 24), coefficients highest power first [N m/rad]."""
+    import control
+
     g11, g12 = sideslip_responses(model, vx)
     lag = control.tf([tau_beta, 1.0], [1.0])
     with warnings.catch_warnings():            # the intermediate (G_beta - G_11)/G_12 * lag is improper
@@ -85,11 +91,15 @@ def eq24_numerator(model: BicycleModel, vx: float, tau_beta: float) -> np.ndarra
 
 def first_order_lowpass(tau: float) -> control.TransferFunction:
     """``1 / (1 + tau s)``: the published realisation's proper-ing low-pass."""
+    import control
+
     return control.tf([1.0], [tau, 1.0])
 
 
 def second_order_lowpass(f: float) -> control.TransferFunction:
     """Second-order Butterworth low-pass with its -3 dB frequency at ``f`` [Hz]."""
+    import control
+
     w = 2.0 * math.pi * f
     return control.tf([w * w], [1.0, math.sqrt(2.0) * w, w * w])
 
@@ -100,6 +110,8 @@ def feedforward_tf(model: BicycleModel, vx: float, tau_beta: float,
 
     ``lowpass`` is ``L(s)``, or a time constant [s] for :func:`first_order_lowpass`.
     """
+    import control
+
     if not isinstance(lowpass, control.TransferFunction):
         lowpass = first_order_lowpass(float(lowpass))
     lp_num, lp_den = (np.atleast_1d(np.squeeze(p[0][0])) for p in (lowpass.num, lowpass.den))
@@ -123,6 +135,8 @@ def noise_gain(model: BicycleModel, vx: float, tau_beta: float, lowpass, Ts: flo
 
 
 def _discrete(tf: control.TransferFunction, Ts: float):
+    import scipy.signal
+
     num, den = (np.atleast_1d(np.squeeze(p[0][0])) for p in (tf.num, tf.den))
     a, b, c, d = scipy.signal.tf2ss(num, den)                  # controllable canonical form: A, B from den only
     return scipy.signal.cont2discrete((a, b, c, d), Ts, method="bilinear")[:4]
@@ -136,6 +150,8 @@ def _discrete_schedule(model: BicycleModel, tau_beta: float, lowpass: tuple, Ts:
     Cached: it depends on the model and time constants only, not on the LQR weights, so a
     tuning study computes it once per worker process.  ``lowpass`` is ``(numerator, denominator)``.
     """
+    import control
+
     lp = control.tf(*lowpass)
     grid = speed_grid(v_lo, v_hi, n)
     rows, fixed = [], None
@@ -168,6 +184,8 @@ class ScheduledFeedforward:
 
     def __init__(self, model: BicycleModel, tau_beta: float, lowpass, Ts: float, v_lo: float, v_hi: float,
                  n: int = 32):
+        import control
+
         if not isinstance(lowpass, control.TransferFunction):
             lowpass = first_order_lowpass(float(lowpass))
         key = tuple(tuple(np.atleast_1d(np.squeeze(p[0][0])).tolist()) for p in (lowpass.num, lowpass.den))

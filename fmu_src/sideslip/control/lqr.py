@@ -14,7 +14,6 @@ FMU would otherwise spend at instantiation.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import solve_continuous_are
 
 from ..bicycle import BicycleModel
 from .schedule import SpeedTable, speed_grid
@@ -30,6 +29,8 @@ def yaw_moment_model(model: BicycleModel, vx: float) -> tuple[np.ndarray, np.nda
 
 def lqr_row(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: float) -> np.ndarray:
     """Gain row ``k`` of the single-input LQR ``u = -k x`` for ``dx/dt = a x + b u`` (as ``control.lqr``)."""
+    from scipy.linalg import solve_continuous_are     # here: a controller without the LQR needs no SciPy
+
     a, b, q = (np.array(m, ndmin=2) for m in (a, b, q))
     rr = np.array([[r]], ndmin=2)
     x = solve_continuous_are(a, b, q, rr)

@@ -8,6 +8,7 @@ the CSV header and a JSON sidecar, the channels' units in an MDF4 file.
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,12 +29,13 @@ def unit_of_field(name: str) -> str:
     return sig.unit if sig.kind == "Real" else "1"
 
 
-@dataclass
-class Results:
+@dataclass(eq=False)
+class Results(Mapping):
     """Recorded co-simulation: structured array ``data`` and run metadata ``meta``.
 
-    It reads like a mapping of arrays (``res["plant.beta"]``, ``res.keys()``), so
-    ``pandas.DataFrame(dict(res))`` works as well as :meth:`to_pandas`.
+    It is a mapping of field names to arrays (``res["plant.beta"]``, ``res.keys()``, ``dict(res)``; ``len(res)``
+    fields): ``pandas.DataFrame(dict(res))`` works, and :meth:`to_pandas` adds the units and the time index
+    (pandas' constructor takes a ``dict``, not any mapping).
     """
 
     data: np.ndarray
@@ -52,11 +54,11 @@ class Results:
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[name]
 
-    def __contains__(self, name: str) -> bool:
+    def __contains__(self, name) -> bool:
         return name in self.data.dtype.names
 
     def __len__(self) -> int:
-        return len(self.data)
+        return len(self.data.dtype.names)
 
     def __iter__(self):
         return iter(self.data.dtype.names)
@@ -66,7 +68,7 @@ class Results:
         return self.data.dtype.names
 
     def keys(self) -> tuple:
-        """Field names (so that a Results reads like a mapping of arrays)."""
+        """Field names."""
         return self.data.dtype.names
 
     @property

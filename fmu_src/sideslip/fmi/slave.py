@@ -121,20 +121,17 @@ def fmu_class(name: str, module: str) -> type:
 
 
 def import_bundle() -> None:
-    """Import every module of this package now.
+    """Keep every module of this package importable for the life of the process.
 
     Inside an FMU the package is the build's own copy, renamed per build (``sideslip_<hash>``,
     :mod:`sideslip.fmi.build`), so FMUs of different builds in one process each run their own code.
-    Hosts such as OMSimulator delete an FMU's unpacked folder once it is loaded: a module imported
-    later (an import inside a function) would no longer be found, so everything is imported while
-    the folder exists (the bundled vehicle files are read at import too).
+    Hosts such as OMSimulator delete an FMU's unpacked folder once it is loaded: the package's sources
+    are held in memory (:func:`sideslip.fmi.resident.keep_resident`) so that a module imported later still
+    loads, and the FMU's model imports only what it uses.
     """
-    import importlib
-    import pkgutil
+    from .resident import keep_resident
 
-    root = sys.modules[_ROOT]
-    for info in pkgutil.walk_packages(root.__path__, _ROOT + "."):
-        importlib.import_module(info.name)
+    keep_resident(sys.modules[_ROOT])
 
 
 def _leave_sys_path(resources) -> None:
@@ -737,5 +734,5 @@ class SideslipSlave(Fmi2Slave):
         return bytes(data)                           # checked when set: a refusal then is an fmi2Error
 
 
-if _ROOT != "sideslip":          # inside an FMU (the per-build package): load it all while its folder exists
+if _ROOT != "sideslip":          # inside an FMU (the per-build package): keep it while its folder exists
     import_bundle()

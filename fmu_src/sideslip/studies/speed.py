@@ -15,7 +15,7 @@ import statistics
 
 from ..cosim.assembly import scenario_components
 from ..cosim.master import CoSimulation
-from ..fmi.build import DEFAULT_OUT
+from ..fmi.build import DEFAULT_OUT, ensure_fmus
 from ..fmi.catalogue import fmu_names, fmu_spec
 from ..progress import progress_bar
 from ..scenarios import get_scenario
@@ -90,6 +90,47 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
         best = min(range(len(medians)), key=medians.__getitem__)
         out["fmus"][fmu] = {"median_us": medians[best], "p90_us": p90[fmu][best], "all_run_medians_us": medians}
     bar.close()
+    out["instantiation_s"] = instantiation_times(fmu_names("controller"), fmu_dir, repeats)
+    return out
+
+
+_INSTANTIATE = """
+import sys, time
+if sys.argv[2] == "warm":
+    import scipy.linalg  # noqa: F401 - a host that already runs another of the project's FMUs
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+md = read_model_description(sys.argv[1])
+unzipped = extract(sys.argv[1])
+t = time.perf_counter()
+s = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
+              instanceName="x")
+s.instantiate()
+s.setupExperiment(startTime=0.0)
+s.enterInitializationMode()
+s.exitInitializationMode()
+print(time.perf_counter() - t)
+"""
+
+
+def instantiation_times(names, fmu_dir=DEFAULT_OUT, repeats: int = 3) -> dict:
+    """Seconds from ``fmi2Instantiate`` to the end of initialisation of each FMU, in a fresh process each time:
+    ``cold`` (the host has imported only fmpy and numpy: the FMU's first instance imports SciPy and the rest) and
+    ``warm`` (SciPy already imported, as in a host that runs another of the project's FMUs); medians of
+    ``repeats``."""
+    import subprocess
+    import sys
+
+    paths = ensure_fmus(list(names), fmu_dir)
+    out = {}
+    for name in names:
+        times = {mode: [] for mode in ("cold", "warm")}
+        for _ in range(repeats):
+            for mode in times:             # alternately: the machine's speed drifts
+                proc = subprocess.run([sys.executable, "-c", _INSTANTIATE, str(paths[name]), mode],
+                                      capture_output=True, text=True, check=True)
+                times[mode].append(float(proc.stdout.strip().splitlines()[-1]))
+        out[name] = {mode: statistics.median(v) for mode, v in times.items()}
     return out
 
 
@@ -104,4 +145,8 @@ def format_bench(b: dict) -> str:
     lines += ["", f"(median over 100-step blocks, best of {len(next(iter(b['fmus'].values()))['all_run_medians_us'])} runs)",
               "", f"closed loop {' + '.join(cl['components'])}: {cl['us_per_step']:.1f} us/step, "
                   f"{cl['real_time_factor']:.1f}x real time (best of {len(cl['all_real_time_factors'])})"]
+    if b.get("instantiation_s"):
+        lines += ["", "instantiation to the end of initialisation [s], median, fresh process each "
+                  "(cold: the host has only fmpy; warm: SciPy already loaded)"]
+        lines += [f"  {name:24s} cold {t['cold']:.3f}  warm {t['warm']:.3f}" for name, t in b["instantiation_s"].items()]
     return "\n".join(lines)
