@@ -209,6 +209,9 @@ def test_cli_bench_json(fmu_dir):
     b = json.loads(proc.stdout)
     assert set(b["fmus"]) >= {"VehiclePlant", "VehicleSensors", "ManeuverDriver"}
     assert b["closed_loop"]["real_time_factor"] > 0
+    assert b["five_fmu_loop"]["components"][-2:] == ["SideslipFusion", "LqrDycController"]
+    assert b["fmus"]["OpenLoopKinematic"]["x_floor"] == 1.0 and b["five_fmu_loop"]["x_floor"] > 3.0
+    assert set(b["instantiation_s"]) == {"BaselineEsc", "LqrDycController", "StabilityController"}
 
 
 @pytest.mark.parametrize("text,expected", [("false", False), ("0", False), ("off", False), ("true", True),

@@ -20,9 +20,15 @@ from ..fmi.catalogue import fmu_names, fmu_spec
 from ..progress import progress_bar
 from ..scenarios import get_scenario
 
-__all__ = ["run_bench", "format_bench"]
+__all__ = ["run_bench", "format_bench", "instantiation_times", "instruction_counts", "loop_breakdown", "FLOOR_FMU",
+           "FIVE_FMU_LOOP"]
 
 BENCH_SCENARIO = "park2018_case2"
+FLOOR_FMU = "OpenLoopKinematic"
+"""The call floor: its filter runs every 10 ms and does little, so its per-step cost is the FMI call, the port
+moves and the range checks that every FMU pays."""
+FIVE_FMU_LOOP = ("SideslipFusion", "LqrDycController")
+"""The estimator and the controller of the five-FMU loop (with driver, plant and sensors)."""
 
 
 def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEFAULT_OUT, repeats: int = 3,
@@ -39,7 +45,7 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
     sc = dataclasses.replace(get_scenario(scenario), estimator_profile=1)
     step = 1e-3
     out = {"scenario": scenario, "step": step, "duration": duration, "fmus": {}, "closed_loop": {}}
-    loops = repeats * (3 + len(fmu_names("estimator")) + len(fmu_names("controller")))
+    loops = repeats * (4 + len(fmu_names("estimator")) + len(fmu_names("controller")))
     bar = progress_bar(loops * duration, "bench", "sim s", enabled=None if progress else False)
     # closed loop, unprofiled: best of `repeats` runs (the machine is shared)
     rtfs = []
@@ -52,6 +58,15 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
     best = max(rtfs)
     out["closed_loop"] = {"components": [c.name for c in comps], "real_time_factor": best,
                           "us_per_step": step / best * 1e6, "all_real_time_factors": rtfs}
+    rtfs = []
+    comps, conns = scenario_components(sc, [FIVE_FMU_LOOP[0]], FIVE_FMU_LOOP[1])
+    for _ in range(repeats):
+        with CoSimulation(comps, conns, step=step, fmu_dir=fmu_dir) as sim:
+            rtfs.append(sim.run(duration).meta["real_time_factor"])
+        bar.update(duration)
+    best = max(rtfs)
+    out["five_fmu_loop"] = {"components": [c.fmu for c in comps], "real_time_factor": best,
+                            "us_per_step": step / best * 1e6, "all_real_time_factors": rtfs}
     # per FMU, profiled inside the loop: median over blocks, best of `repeats` runs
     runs: dict[str, list[float]] = {}
     p90: dict[str, list[float]] = {}
@@ -90,6 +105,12 @@ def run_bench(duration: float = 5.0, scenario: str = BENCH_SCENARIO, fmu_dir=DEF
         best = min(range(len(medians)), key=medians.__getitem__)
         out["fmus"][fmu] = {"median_us": medians[best], "p90_us": p90[fmu][best], "all_run_medians_us": medians}
     bar.close()
+    floor = out["fmus"][FLOOR_FMU]["median_us"]
+    out["floor_us"] = floor
+    for m in out["fmus"].values():
+        m["x_floor"] = m["median_us"] / floor
+    for loop in ("closed_loop", "five_fmu_loop"):
+        out[loop]["x_floor"] = out[loop]["us_per_step"] / floor
     out["instantiation_s"] = instantiation_times(fmu_names("controller"), fmu_dir, repeats)
     return out
 
@@ -134,19 +155,133 @@ def instantiation_times(names, fmu_dir=DEFAULT_OUT, repeats: int = 3) -> dict:
     return out
 
 
+_PLANT_STEPS = """
+import sys
+from sideslip.plant.vehicle import PlantConfig, VehiclePlant
+plant = VehiclePlant(PlantConfig(vehicle="park2018_sonata", vx0=18.0))
+for k in range(int(sys.argv[1])):
+    plant.step(1e-3, delta_f=0.03 if (k // 500) % 2 else -0.03, T_drive=120.0, mu=0.9)
+"""
+
+_LOOP_STEPS = """
+import sys
+from sideslip.cosim.assembly import scenario_components
+from sideslip.cosim.master import CoSimulation
+from sideslip.scenarios import get_scenario
+comps, conns = scenario_components(get_scenario("park2018_case2"), sys.argv[3:4], sys.argv[4] if len(sys.argv) > 4
+                                   else None)
+with CoSimulation(comps, conns, step=1e-3, fmu_dir=sys.argv[2]) as sim:
+    sim.run(int(sys.argv[1]) * 1e-3)
+"""
+
+
+def _instructions(code: str, args) -> int:
+    """Instructions a Python process running ``code`` executes (valgrind's callgrind)."""
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "callgrind.out"
+        subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", sys.executable, "-c", code,
+                        *map(str, args)], capture_output=True, text=True, check=True)
+        for line in out.read_text().splitlines():
+            if line.startswith(("summary:", "totals:")):
+                return int(line.split()[1])
+    raise RuntimeError("callgrind wrote no total")
+
+
+def instruction_counts(fmu_dir=DEFAULT_OUT, short: int = 200, long: int = 700) -> dict:
+    """Instructions per 1 ms step, counted by callgrind (independent of the machine's load), as the difference of a
+    ``long`` and a ``short`` run (start-up cancels): the library ``VehiclePlant.step`` and the driver + plant +
+    sensors FMU loop in fmpy (the five-FMU loop takes over ten minutes to start under callgrind).  Needs valgrind
+    (``apt install valgrind``)."""
+    import shutil
+
+    if shutil.which("valgrind") is None:
+        raise RuntimeError("counting instructions needs valgrind on the PATH (apt install valgrind)")
+    ensure_fmus(["ManeuverDriver", "VehiclePlant", "VehicleSensors"], fmu_dir)
+    cases = {"VehiclePlant.step (library)": (_PLANT_STEPS, ()),
+             "driver + plant + sensors (FMUs)": (_LOOP_STEPS, (fmu_dir,))}
+    return {name: (_instructions(code, (long, *extra)) - _instructions(code, (short, *extra))) / (long - short)
+            for name, (code, extra) in cases.items()}
+
+
+def loop_breakdown(duration: float = 3.0, fmu_dir=DEFAULT_OUT, scenario: str = BENCH_SCENARIO) -> dict:
+    """Where each microsecond of a five-FMU loop step goes, per FMU [us per 1 ms step].
+
+    The loop runs in this process (fmpy loads the FMUs' Python into this interpreter) with the master's per-FMU
+    timer (set inputs, ``doStep``, get outputs) and timers wrapped around the FMUs' Python: the whole ``do_step``, the model's ``step``, the model's ``outputs`` with their range checks and port
+    writes (``_write_outputs``).  What ``do_step`` spends besides those is the lifecycle and input range checks;
+    what the master's time holds besides ``do_step`` is the FMI call itself (ctypes, the shim, pythonfmu) and the
+    master's port moves.  Everything comes from the one timed run (the timers add about 1 us per FMU step, in
+    the parts they wrap), means over the run.
+
+    Returns
+    -------
+    dict
+        ``{fmu: {"total", "fmi_call_and_ports", "checks", "model_step", "outputs"}}``.
+    """
+    import gc
+    import time
+
+    sc = dataclasses.replace(get_scenario(scenario), estimator_profile=1)
+    comps, conns = scenario_components(sc, [FIVE_FMU_LOOP[0]], FIVE_FMU_LOOP[1])
+    spent: dict[str, dict[str, float]] = {}
+    clock = time.perf_counter
+
+    def timed(key, fn, fmu):
+        acc = spent.setdefault(fmu, {})
+
+        def wrapper(*args, **kw):
+            t0 = clock()
+            try:
+                return fn(*args, **kw)
+            finally:
+                acc[key] = acc.get(key, 0.0) + clock() - t0
+        return wrapper
+
+    with CoSimulation(comps, conns, step=1e-3, fmu_dir=fmu_dir) as sim:
+        slaves = [o for o in gc.get_objects() if type(o).__name__ in {c.fmu for c in comps}
+                  and hasattr(o, "model") and hasattr(o, "do_step")]
+        for slave in slaves:
+            fmu, model = type(slave).__name__, slave.model
+            slave.do_step = timed("do_step", slave.do_step, fmu)
+            slave._write_outputs = timed("outputs", slave._write_outputs, fmu)
+            model.step = timed("model_step", model.step, fmu)
+            model.outputs = timed("outputs", model.outputs, fmu)
+        n = int(round(duration / 1e-3))
+        prof = sim.run(duration, profile=True).meta["profile"]
+    total = {c.fmu: sum(prof[c.name]) / len(prof[c.name]) for c in comps}       # mean: the parts are sums
+    out = {}
+    for fmu, t in total.items():
+        acc = {k: v / n * 1e6 for k, v in spent.get(fmu, {}).items()}
+        inner = acc.get("model_step", 0.0) + acc.get("outputs", 0.0)
+        out[fmu] = {"total": t, "fmi_call_and_ports": max(t - acc.get("do_step", 0.0), 0.0),
+                    "checks": max(acc.get("do_step", 0.0) - inner, 0.0), "model_step": acc.get("model_step", 0.0),
+                    "outputs": acc.get("outputs", 0.0)}
+    return out
+
+
 def format_bench(b: dict) -> str:
     """Text table of :func:`run_bench` results."""
     lines = [f"benchmark: scenario {b['scenario']}, communication step {b['step'] * 1e3:g} ms, "
              f"{b['duration']:g} s simulated per measurement", "",
-             f"{'FMU':24s} {'median us/step':>15s} {'p90 us/step':>12s}"]
+             f"{'FMU':24s} {'median us/step':>15s} {'p90 us/step':>12s} {'x floor':>8s}"]
     for name, m in b["fmus"].items():
-        lines.append(f"{name:24s} {m['median_us']:15.1f} {m['p90_us']:12.1f}")
-    cl = b["closed_loop"]
-    lines += ["", f"(median over 100-step blocks, best of {len(next(iter(b['fmus'].values()))['all_run_medians_us'])} runs)",
-              "", f"closed loop {' + '.join(cl['components'])}: {cl['us_per_step']:.1f} us/step, "
-                  f"{cl['real_time_factor']:.1f}x real time (best of {len(cl['all_real_time_factors'])})"]
+        lines.append(f"{name:24s} {m['median_us']:15.1f} {m['p90_us']:12.1f} {m['x_floor']:8.2f}")
+    lines += ["", f"(median over 100-step blocks, best of {len(next(iter(b['fmus'].values()))['all_run_medians_us'])} "
+              f"runs; the floor is {FLOOR_FMU}'s {b['floor_us']:.1f} us in this run)", ""]
+    for key in ("closed_loop", "five_fmu_loop"):
+        cl = b[key]
+        lines.append(f"loop {' + '.join(cl['components'])}: {cl['us_per_step']:.1f} us/step = {cl['x_floor']:.1f}x "
+                     f"the floor, {cl['real_time_factor']:.1f}x real time (best of {len(cl['all_real_time_factors'])})")
     if b.get("instantiation_s"):
         lines += ["", "instantiation to the end of initialisation [s], median, fresh process each "
                   "(cold: the host has only fmpy; warm: SciPy already loaded)"]
         lines += [f"  {name:24s} cold {t['cold']:.3f}  warm {t['warm']:.3f}" for name, t in b["instantiation_s"].items()]
+    if b.get("instructions_per_step"):
+        lines += ["", "instructions per 1 ms step (callgrind, difference of two run lengths)"]
+        lines += [f"  {name:34s} {n:12,.0f}" for name, n in b["instructions_per_step"].items()]
     return "\n".join(lines)
