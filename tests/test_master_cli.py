@@ -1,6 +1,7 @@
 """The fmpy master, metrics, plots and the CLI."""
 import json
 import math
+import shutil
 import subprocess
 import sys
 
@@ -227,3 +228,24 @@ def test_boolean_parameter_with_an_unknown_word_is_refused(fmu_dir):
     with pytest.raises(MasterError, match="fault_latch"):
         with CoSimulation([Component("Kim2016SteeringEKF", "kim", {"fault_latch": "maybe"})], fmu_dir=fmu_dir):
             pass
+
+
+def test_loop_breakdown_splits_each_fmus_step_into_its_parts(fmu_dir):
+    from sideslip.studies.speed import FIVE_FMU_LOOP, loop_breakdown
+
+    b = loop_breakdown(0.3, fmu_dir)
+    assert list(b) == ["ManeuverDriver", "VehiclePlant", "VehicleSensors", *FIVE_FMU_LOOP]
+    for fmu, parts in b.items():
+        inner = parts["fmi_call_and_ports"] + parts["checks"] + parts["model_step"] + parts["outputs"]
+        assert parts["model_step"] > 0 and parts["outputs"] > 0, fmu
+        assert inner == pytest.approx(parts["total"], rel=0.2), fmu
+    assert b["VehiclePlant"]["model_step"] > b["VehicleSensors"]["model_step"]
+
+
+@pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
+def test_callgrind_counts_the_instructions_of_a_loop():
+    from sideslip.studies.speed import _instructions
+
+    code = "import sys\nx = 0\nfor i in range(int(sys.argv[1])):\n    x += i * i\n"
+    per_iteration = (_instructions(code, (60000,)) - _instructions(code, (10000,))) / 50000
+    assert 20 < per_iteration < 2000
