@@ -212,8 +212,9 @@ def loop_breakdown(duration: float = 3.0, fmu_dir=DEFAULT_OUT, scenario: str = B
     """Where each microsecond of a five-FMU loop step goes, per FMU [us per 1 ms step].
 
     The loop runs in this process (fmpy loads the FMUs' Python into this interpreter) with the master's per-FMU
-    timer (set inputs, ``doStep``, get outputs) and timers wrapped around the FMUs' Python: the whole ``do_step``, the model's ``step``, the model's ``outputs`` with their range checks and port
-    writes (``_write_outputs``).  What ``do_step`` spends besides those is the lifecycle and input range checks;
+    timer (set inputs, ``doStep``, get outputs) and timers wrapped around the FMUs' Python: the whole
+    ``do_step``, the model's ``step``, the model's ``outputs`` with their range checks and port writes
+    (``_write_outputs``).  What ``do_step`` spends besides those is the lifecycle and input range checks;
     what the master's time holds besides ``do_step`` is the FMI call itself (ctypes, the shim, pythonfmu) and the
     master's port moves.  Everything comes from the one timed run (the timers add about 1 us per FMU step, in
     the parts they wrap), means over the run.
@@ -243,8 +244,9 @@ def loop_breakdown(duration: float = 3.0, fmu_dir=DEFAULT_OUT, scenario: str = B
         return wrapper
 
     with CoSimulation(comps, conns, step=1e-3, fmu_dir=fmu_dir) as sim:
+        # the loop's slave objects (a freed instance kept for reuse has no model, and is not stepped)
         slaves = [o for o in gc.get_objects() if type(o).__name__ in {c.fmu for c in comps}
-                  and hasattr(o, "model") and hasattr(o, "do_step")]
+                  and getattr(o, "model", None) is not None and hasattr(o, "do_step")]
         for slave in slaves:
             fmu, model = type(slave).__name__, slave.model
             slave.do_step = timed("do_step", slave.do_step, fmu)
