@@ -281,3 +281,31 @@ def test_a_second_free_is_harmless_and_a_freed_instance_refuses_calls(fmu_dir):
         with pytest.raises(FMICallException):
             slave.fmi2DoStep(comp, 0.0, 0.01, 1)
     slave.fmi2FreeInstance(None)
+
+
+def test_valid_comes_back_after_a_burst_on_the_real_drive(fmu_dir):
+    """The same burst on 30 s of the real drive's test slice (derived wheel speeds and GNSS), against the truth."""
+    from sideslip.cosim.assembly import Component
+    from sideslip.cosim.replay import replay_fmus
+    from sideslip.studies.accuracy import REAL, Case, simulate
+
+    names = ["Kim2016SteeringEKF", "Pi2011FuzzyEKF", "SideslipFusion"]
+    full = simulate(Case("stanford2014_test", REAL, 0))
+    keep = full.time <= full.time[0] + 30.0
+    rec = Recording(full.time[keep], {k: np.asarray(v)[keep] for k, v in full.signals.items()},
+                    {k: np.asarray(v)[keep] for k, v in full.reference.items()}, "real")
+    comps = [Component(n, n, {"vehicle": "stanford_track_car"}) for n in names]
+    clean = replay_fmus(rec, comps, 1e-3, fmu_dir)
+    back = rec.time[0] + 10.2
+    burst = (rec.time >= back - 0.2) & (rec.time < back)
+    bad = {k: np.array(v, dtype=float) for k, v in rec.signals.items()}
+    for k in ("ay_m", "yaw_rate_m", "ax_m", "delta_m", "omega_fl_m", "omega_rl_m"):
+        bad[k][burst] = 1e300 * np.where(np.arange(burst.sum()) % 2, 1.0, -1.0)
+    hit = replay_fmus(Recording(rec.time, bad, rec.reference, "burst"), comps, 1e-3, fmu_dir)
+    t, truth = hit["time"], rec.on_grid(1e-3).reference["beta"]
+    later = t >= back + 3.0
+    for n in names:
+        valid = hit[f"{n}.valid"] > 0.5
+        assert valid[(t >= back) & (t <= back + RECOVERY_S)].any(), n
+        err = lambda res: np.sqrt(np.mean(np.degrees(res[f"{n}.beta_hat"] - truth)[later] ** 2))  # noqa: E731
+        assert err(hit) < 1.5 * err(clean), (n, err(hit), err(clean))

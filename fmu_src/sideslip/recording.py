@@ -43,7 +43,7 @@ from .signals import SENSOR_OUTPUTS, SIGNALS, WHEEL_SPEEDS_M
 from .units import si_factor
 
 __all__ = ["Recording", "LogError", "read_log", "write_log", "replay", "plausibility", "missing_columns",
-           "OPTIONAL_INPUTS", "LOGGED_INPUTS", "REFERENCES", "PLAUSIBLE", "LOG_READERS", "MAP_KEYS",
+           "recorded_speed", "OPTIONAL_INPUTS", "LOGGED_INPUTS", "REFERENCES", "PLAUSIBLE", "LOG_READERS", "MAP_KEYS",
            "WHEEL_SPEED_STAND_INS"]
 
 OPTIONAL_INPUTS = {"Mz_cmd": 0.0, "mu": 1.0, "mag_x": 0.0, "mag_y": 0.0, "mag_z": 0.0}
@@ -486,22 +486,25 @@ def read_log(csv_path: str | Path, map_path: str | Path | None = None, max_gap: 
     return Recording(time, signals, reference, str(path), stand_in)
 
 
-def _moving_speed(rec: Recording, radius: float) -> np.ndarray:
-    """The best speed the recording has [m/s]: the reference, the GNSS, else the wheels on ``radius``."""
+def recorded_speed(rec: Recording, radius: float | None = None) -> np.ndarray:
+    """The car's speed in a recording [m/s]: the reference velocity (a simulation's truth, a log's INS), else the
+    GNSS speed, else (given a rolling ``radius`` [m]) the wheels' mean speed; without any, every sample counts as
+    moving (infinite)."""
     if "vx" in rec.reference:
-        return np.abs(np.asarray(rec.reference["vx"], dtype=float))
+        return np.hypot(rec.reference["vx"], rec.reference.get("vy", 0.0))
     if "gps_speed" in rec.signals:
         return np.asarray(rec.signals["gps_speed"], dtype=float)
     wheels = [np.asarray(rec.signals[w], dtype=float) for w in WHEEL_SPEEDS_M if w in rec.signals]
-    return np.abs(np.mean(wheels, axis=0)) * radius if wheels else np.zeros(len(rec.time))
+    if wheels and radius is not None:
+        return np.abs(np.mean(wheels, axis=0)) * radius
+    return np.full(len(rec.time), np.inf)
 
 
 def _correlation(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
-    if mask.sum() < 20:
+    """Pearson's correlation of ``a`` and ``b`` over ``mask`` (NaN with fewer than 20 samples or no variation)."""
+    if mask.sum() < 20 or np.ptp(a[mask]) == 0 or np.ptp(b[mask]) == 0:
         return math.nan
-    x, y = a[mask] - a[mask].mean(), b[mask] - b[mask].mean()
-    den = math.sqrt(float(x @ x) * float(y @ y))
-    return float(x @ y) / den if den > 0 else math.nan
+    return float(np.corrcoef(a[mask], b[mask])[0, 1])
 
 
 def plausibility(rec: Recording, vehicle=None) -> list[str]:
@@ -525,11 +528,12 @@ def plausibility(rec: Recording, vehicle=None) -> list[str]:
         The findings, empty for a plausible log.
     """
     radius = vehicle.R_w if vehicle is not None else 0.31
-    speed = _moving_speed(rec, radius)
+    speed = recorded_speed(rec, radius)
     moving = speed > 5.0
     out = []
     if not moving.any():
         return ["the log never moves faster than 5 m/s (by its speed signals): nothing to estimate"]
+    speed = np.where(np.isfinite(speed), speed, 0.0)          # a log without any speed: the sign checks only
     sig, ref = rec.signals, rec.reference
     if "beta" in ref:
         beta = np.abs(np.asarray(ref["beta"], dtype=float))

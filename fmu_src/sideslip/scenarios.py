@@ -338,18 +338,22 @@ def fmvss126_reference_angle(vehicle: str = "pi2011_suv", mu: float = 0.5) -> fl
     return float(res["delta_sw"][i - 1] + w * (res["delta_sw"][i] - res["delta_sw"][i - 1]))
 
 
+_SWD_DURATION, _SIS_DURATION = 8.0, 25.0
+"""How long the FMVSS 126 sine-with-dwell and slowly-increasing-steer scenarios drive [s]."""
+
+
 def _fmvss(surface: str, factor: float | None, direction: float) -> Scenario:
     side, mu = ("" if direction > 0 else "_right"), _FMVSS_MU[surface]
     if factor is None:
-        spec = _spec("slowly_increasing_steer", direction=direction, t_start=2.0, duration=25.0)
+        spec = _spec("slowly_increasing_steer", direction=direction, t_start=2.0, duration=_SIS_DURATION)
         return Scenario(f"fmvss126_suv_mu{surface}_sis{side}", f"FMVSS 126 slowly increasing steer, SUV, mu {mu}",
-                        "FMVSS 126 S7.6", "pi2011_suv", spec, 25.0, road_mu=f"{mu}", sensors=_FMVSS_SENSORS,
+                        "FMVSS 126 S7.6", "pi2011_suv", spec, _SIS_DURATION, road_mu=f"{mu}", sensors=_FMVSS_SENSORS,
                         notes=_FMVSS_NOTE, hints={"mu": mu})
     spec = _spec("sine_with_dwell", A=fmvss126_reference_angle("pi2011_suv", mu), factor=factor,
-                 direction=direction, t_start=3.0, duration=8.0)
+                 direction=direction, t_start=3.0, duration=_SWD_DURATION)
     return Scenario(f"fmvss126_suv_mu{surface}_a{factor:.1f}{side}",
                     f"FMVSS 126 sine with dwell {factor:.1f}A, SUV, mu {mu}", "FMVSS 126 S7.7", "pi2011_suv",
-                    spec, 8.0, road_mu=f"{mu}", sensors=_FMVSS_SENSORS, notes=_FMVSS_NOTE,
+                    spec, _SWD_DURATION, road_mu=f"{mu}", sensors=_FMVSS_SENSORS, notes=_FMVSS_NOTE,
                     hints={"mu": mu})
 
 
@@ -493,7 +497,7 @@ def scenario_names() -> list[str]:
 def scenario_duration(name: str) -> float:
     """How long scenario ``name`` drives [s], without computing an FMVSS 126 amplitude it has not yet needed."""
     if name not in SCENARIOS and name in _LAZY:
-        return 8.0 if "_sis" not in name else 25.0
+        return _SIS_DURATION if "_sis" in name else _SWD_DURATION
     return get_scenario(name).duration
 
 

@@ -5,19 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import EXAMPLES_FORMAT
+from .common import EXAMPLES_FORMAT, window
 
 __all__ = ["register", "vehicle_report"]
-
-
-def _window(text: str) -> tuple[float, float]:
-    try:
-        t0, t1 = (float(v) for v in text.split(":"))
-    except ValueError:
-        raise SystemExit(f"--low-friction: expected START:END in seconds, got {text!r}") from None
-    if not t1 > t0:
-        raise SystemExit(f"--low-friction {text}: END must be after START")
-    return t0, t1
 
 
 def vehicle_report(name_or_path: str) -> str:
@@ -66,7 +56,7 @@ def _cmd_identify(args) -> int:
     base = load_vehicle(args.vehicle)
     logs = [read_log(p, args.map) for p in args.log]
     lows = [read_log(p, args.map) for p in args.low_friction_log or []]
-    result = identify(logs, base, fix=args.fix or (), low_friction=[_window(w) for w in args.low_friction or []],
+    result = identify(logs, base, fix=args.fix or (), low_friction=list(args.low_friction or []),
                       low_friction_logs=lows)
     print(result.table())
     out = Path(args.out)
@@ -118,7 +108,7 @@ def register(sub) -> None:
     ide.add_argument("--out", required=True, help="the vehicle file to write")
     ide.add_argument("--fix", action="append", metavar="NAME", help="hold a parameter at the base's value instead of "
                      "fitting it (repeatable)")
-    ide.add_argument("--low-friction", action="append", metavar="START:END", help="time window [s] driven on a "
+    ide.add_argument("--low-friction", action="append", metavar="START:END", type=window, help="time window [s] driven on a "
                      "low-friction surface (repeatable)")
     ide.add_argument("--low-friction-log", action="append", metavar="LOG", help="a log driven on a low-friction "
                      "surface throughout (repeatable)")

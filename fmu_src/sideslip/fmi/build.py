@@ -185,7 +185,8 @@ def _install_shim(fmu: Path, model_id: str, shim: Path, platform: str) -> None:
 def _add_bytecode(fmu: Path, pkg: Path) -> None:
     """Add the bundled package's bytecode to the FMU's ``resources/``, validated by the sources' hashes (a host
     that unpacks an FMU gives its files new times): a host on this Python version loads it instead of compiling
-    every module at each instantiation, which was about half of an instantiation's time; others ignore it."""
+    the modules at each instantiation (compiling them all takes about as long as running them); others ignore
+    it."""
     compileall.compile_dir(pkg, quiet=1, invalidation_mode=py_compile.PycInvalidationMode.CHECKED_HASH)
     with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as z:
         for pyc in sorted(pkg.rglob("__pycache__/*.pyc")):

@@ -139,8 +139,8 @@ def _leave_sys_path(resources) -> None:
 
     pythonfmu puts it first to import the wrapper module; left there, it would shadow the host's
     own packages (a host process that imports :mod:`sideslip` later, or the workers it spawns,
-    would get the FMU's partial copy).  The FMU's modules are imported by then, and its
-    subpackages load through their packages' ``__path__``, not ``sys.path``.
+    would get the FMU's partial copy).  The FMU's modules load through their packages' ``__path__``, not
+    ``sys.path``, or from memory (:func:`import_bundle`).
     """
     folder = str(resources) if resources else None
     if folder and folder in sys.path:               # pythonfmu inserts it at every instantiation: keep one

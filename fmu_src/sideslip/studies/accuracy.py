@@ -50,7 +50,7 @@ from ..estimators import ESTIMATORS
 from ..params import build, declared_fields
 from ..plant.sensors import SensorConfig
 from ..plant.vehicle import PlantConfig
-from ..recording import LogError, Recording, read_log, replay
+from ..recording import LogError, Recording, read_log, recorded_speed, replay
 from ..scenarios import BENCHMARK_DEVELOPMENT, BENCHMARK_TEST, BENCHMARK_TRAINING, Scenario, get_scenario
 from ..units import DEG, wrap_angle
 from ..vehicles import VehicleParams, load_vehicle
@@ -60,7 +60,7 @@ from .metrics import score, scored_samples, valid_share
 from .real_drive import REAL, VEHICLE, is_real_drive, real_drive
 
 __all__ = ["CONDITIONS", "RECORDED", "OFF_DEG", "SPLIT_PLANTS", "OFF_PLANT_CONDITION", "Row", "ROWS",
-           "PAPER_METHODS", "Case", "cases", "log_case", "sensor_errors", "road_draw", "vehicle_mismatch", "setup", "record", "simulate", "make_estimator", "recorded_speed",
+           "PAPER_METHODS", "Case", "cases", "log_case", "sensor_errors", "road_draw", "vehicle_mismatch", "setup", "record", "simulate", "make_estimator",
            "row_metrics", "run_case", "select_rows", "with_params", "sensor_overrides", "run_benchmark"]
 
 CONDITIONS = ("nominal", "sensors", "mismatch", "sensors+mismatch", REAL)
@@ -303,16 +303,6 @@ def _longest(mask: np.ndarray, dt: float) -> float:
         return 0.0
     edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
     return float((edges[1::2] - edges[::2]).max() * dt)
-
-
-def recorded_speed(rec: Recording) -> np.ndarray:
-    """The car's speed in a recording [m/s]: the reference velocity (a simulation's truth, a log's INS),
-    else the GPS speed; without either, every sample counts as moving."""
-    if "vx" in rec.reference:
-        return np.hypot(rec.reference["vx"], rec.reference.get("vy", 0.0))
-    if "gps_speed" in rec.signals:
-        return np.asarray(rec.signals["gps_speed"], dtype=float)
-    return np.full(len(rec.time), np.inf)
 
 
 def row_metrics(rec: Recording, beta_hat, std, valid) -> dict:

@@ -21,9 +21,9 @@ import numpy as np
 from ..cosim.assembly import Component, estimator_instances
 from ..cosim.replay import replay_fmus
 from ..fmi.build import DEFAULT_OUT
-from ..recording import Recording, plausibility, read_log
+from ..recording import Recording, plausibility, read_log, recorded_speed
 from ..vehicles import load_vehicle
-from .accuracy import recorded_speed, row_metrics
+from .accuracy import row_metrics
 from .plots import plot_sideslip
 
 __all__ = ["replay_log", "format_replay", "replay_record"]

@@ -24,7 +24,7 @@ import numpy as np
 from ..units import DEG, wrap_angle
 
 __all__ = ["MOVING_SPEED", "scored_samples", "valid_share", "score", "estimate_metrics", "scenario_summary",
-           "format_table", "command_metrics", "format_command_table", "trajectory_difference"]
+           "format_table", "rms", "command_metrics", "format_command_table", "trajectory_difference"]
 
 MOVING_SPEED = 2.0
 """Speed [m/s] below which sideslip errors are not scored (undefined at standstill)."""
@@ -151,6 +151,12 @@ def scenario_summary(results, plant: str = "plant", min_speed: float = MOVING_SP
             "duration": float(results["time"][-1])}
 
 
+def rms(x) -> float:
+    """Root mean square of ``x`` (0 for no samples)."""
+    x = np.asarray(x, dtype=float)
+    return float(np.sqrt(np.mean(x ** 2))) if x.size else 0.0
+
+
 def command_metrics(results, limit: float, controller: str = "controller", plant: str = "plant",
                     min_speed: float = MOVING_SPEED) -> dict:
     """How a yaw-moment controller did in a run, while the car moves faster than ``min_speed``.
@@ -175,7 +181,6 @@ def command_metrics(results, limit: float, controller: str = "controller", plant
     cmd = np.asarray(results[f"{controller}.Mz_cmd"])[mask]
     act = np.abs(np.asarray(results[f"{plant}.Mz_act"]))
     dt = float(t[1] - t[0]) if len(t) > 1 else 0.0
-    rms = (lambda x: float(np.sqrt(np.mean(x ** 2))) if x.size else 0.0)   # noqa: E731
     return {"rms_yaw_rate_error_deg_s": rms(err), "max_yaw_rate_error_deg_s": float(np.max(np.abs(err), initial=0.0)),
             "rms_Mz_cmd": rms(cmd), "max_abs_Mz_cmd": float(np.max(np.abs(cmd), initial=0.0)),
             "effort_Nms": float(act.sum() * dt),

@@ -11,6 +11,7 @@ from ...control.dyc import LqrDycConfig
 from ...control.reference import ReferenceModel
 from ...units import DEG
 from ...vehicles import VehicleParams
+from ..metrics import rms
 
 MEASURES = ("max_abs_beta_deg", "rms_yaw_rate_error_deg_s", "rms_beta_error_deg", "effort_Nms", "saturated_pct",
             "rms_Mz_cmd", "rms_dMz_dt", "max_dMz_dt", "max_counter_Mz_launch")
@@ -91,7 +92,6 @@ def control_metrics(a: dict, vehicle: VehicleParams, mu: float, Mz_max: float | 
     launch = np.arange(len(vx)) < int(np.argmax(vx >= 0.95 * vx.max()))
     steer = np.abs(delta) > 0.005
     counter = -np.sign(delta) * cmd
-    rms = lambda x: float(np.sqrt(np.mean(x ** 2))) if x.size else 0.0          # noqa: E731
     return {"max_abs_beta_deg": float(np.max(np.abs(a["plant.beta"][mask])) * DEG),
             "rms_yaw_rate_error_deg_s": rms((a["plant.yaw_rate"] - gamma_ref)[mask]) * DEG,
             "rms_beta_error_deg": rms((a["plant.beta"] - beta_ref)[mask]) * DEG,
