@@ -1,5 +1,6 @@
 """LQR direct-yaw-moment controller: gains, stability, feed-forward, reference, saturation, FMUs."""
 import math
+from pathlib import Path
 
 import control
 import numpy as np
@@ -316,13 +317,15 @@ def _controller_inputs(n=4000):
     t = np.arange(1, n + 1) * 1e-3
     delta = 0.05 * np.sin(2 * np.pi * 0.7 * t)
     return [dict(delta_m=d, vx_hat=20.0 - 2 * tt, beta_hat=-0.3 * d, yaw_rate_m=2.5 * d, yaw_rate_hat=2.4 * d,
-                 beta_valid=not 1.0 < tt < 1.5, dyc_enable=not 2.0 < tt < 2.2) for d, tt in zip(delta, t)]
+                 beta_valid=not 1.0 < tt < 1.5, dyc_enable=not 2.0 < tt < 2.2, mu_hat=0.8 if tt < 1.2 else 0.37,
+                 beta_std=0.004 + 0.01 * abs(d)) for d, tt in zip(delta, t)]
 
 
 @pytest.mark.parametrize("name, cls, params", [
-    ("LqrDycController", LqrDycController, dict(mu=0.8, yaw_rate_source=1, feedforward=1)),
+    ("LqrDycController", LqrDycController, dict(mu=0.8, yaw_rate_source=1, feedforward=1, friction_source=1,
+                                                beta_std_ref=0.01)),
     ("LqrDycController", LqrDycController, dict(mu=0.8, control_profile=0)),
-    ("BaselineEsc", BaselineEsc, dict(mu=0.8, k_beta=30.0))])
+    ("BaselineEsc", BaselineEsc, dict(mu=0.8, k_beta=30.0, friction_source=1))])
 def test_controller_fmu_equals_library_and_save_restore_continues(harness, name, cls, params):
     inputs = _controller_inputs()
     lib = cls(build(cls.config_class, params))
@@ -410,11 +413,16 @@ def test_runner_feeds_the_controller_truth_or_an_estimator_and_its_command_to_th
     sc = get_scenario("nguyen2012_cornering")
     _, conns = scenario_components(sc, [], "LqrDycController")
     assert set(conns) == {("plant.beta", "controller.beta_hat"), ("plant.vx", "controller.vx_hat"),
-                          ("plant.yaw_rate", "controller.yaw_rate_hat")}
+                          ("plant.yaw_rate", "controller.yaw_rate_hat"), ("driver.mu", "controller.mu_hat")}
     comps, conns = scenario_components(sc, ["Park2018Observer", "Kim2016SteeringEKF"], "LqrDycController",
                                        control_source="Kim2016SteeringEKF")
     assert {("Kim2016SteeringEKF.beta_hat", "controller.beta_hat"), ("Kim2016SteeringEKF.valid", "controller.beta_valid"),
-            ("Kim2016SteeringEKF.yaw_rate_hat", "controller.yaw_rate_hat")} <= set(conns)
+            ("Kim2016SteeringEKF.yaw_rate_hat", "controller.yaw_rate_hat"),
+            ("Kim2016SteeringEKF.beta_hat_std", "controller.beta_std")} <= set(conns)
+    _, conns = scenario_components(sc, ["Kim2016SteeringEKF", "SideslipFusion"], "LqrDycController",
+                                   control_source="SideslipFusion")
+    assert {("SideslipFusion.mu_hat", "controller.mu_hat"), ("SideslipFusion.beta_hat_std", "controller.beta_std")} \
+        <= set(conns)
     assert comps[-1].parameters["yaw_rate_source"] == 1                  # the estimate, not the gyro
     comps, _ = scenario_components(sc, [], "LqrDycController", params={"controller.yaw_rate_source": 0})
     assert comps[-1].parameters["yaw_rate_source"] == 0
@@ -429,3 +437,79 @@ def test_runner_feeds_the_controller_truth_or_an_estimator_and_its_command_to_th
     np.testing.assert_allclose(res["plant.Mz_act"][-1], res["controller.Mz_cmd"][-2], rtol=0.05, atol=2.0)
     # the embedded Nguyen filter sees what the separate one sees (same inputs, same command)
     np.testing.assert_allclose(res["controller.beta_hat"], res["Nguyen2012DACMRKF.beta_hat"], atol=1e-12)
+
+
+def _record_call(item):
+    """A job of the resume test: leaves a mark for each run, fails on the item asked to."""
+    folder, n, fail = item
+    (Path(folder) / f"ran_{n}").write_text("")
+    if n == fail:
+        raise RuntimeError("stopped")
+    return {"n": n, "square": n * n}
+
+
+def test_a_stopped_study_goes_on_where_it_stopped(tmp_path):
+    from sideslip.studies.jobs import ResultLog, map_ordered
+
+    log = ResultLog(tmp_path / "rows.jsonl")
+    items = [(str(tmp_path), n, 3) for n in range(6)]
+    with pytest.raises(RuntimeError, match="stopped"):
+        map_ordered(_record_call, items, workers=1, progress=False, log=log, key=lambda item: str(item[1]))
+    finished = log.load()
+    assert finished and "3" not in finished and all(v == {"n": int(k), "square": int(k) ** 2}
+                                                    for k, v in finished.items())
+    with open(log.path, "a") as fh:
+        fh.write('{"key": "9", "res')                 # a line cut off by the interruption
+    for mark in tmp_path.glob("ran_*"):
+        mark.unlink()
+    items = [(str(tmp_path), n, -1) for n in range(6)]
+    results = map_ordered(_record_call, items, workers=1, progress=False, log=log, key=lambda item: str(item[1]))
+    assert results == [{"n": n, "square": n * n} for n in range(6)]
+    assert {int(p.name[4:]) for p in tmp_path.glob("ran_*")} == set(range(6)) - {int(k) for k in finished}
+
+
+def _friction_run(cls, mu_hat_of_t, **values):
+    ctl = cls(build(cls.config_class, {"vehicle": "park2018_sonata", **values}))
+    out = []
+    for k in range(2500):
+        t = k * 1e-3
+        s = math.sin(3.0 * t)
+        ctl.step(1e-3, 0.05 * s, 20.0, 0.01 * s, 0.1 * s, 0.1 * s, True, True, mu_hat_of_t(t))
+        out.append(ctl.outputs())
+    return np.array(out)
+
+
+@pytest.mark.parametrize("cls", [LqrDycController, BaselineEsc])
+def test_friction_schedule_follows_mu_hat_and_without_it_changes_nothing(cls):
+    today = _friction_run(cls, lambda t: 0.0)
+    # friction_source 0 ignores the input; with 1, no estimate (0) or one at or above mu is the parameter mu
+    assert np.array_equal(_friction_run(cls, lambda t: 0.35), today)
+    assert np.array_equal(_friction_run(cls, lambda t: 0.0, friction_source=1), today)
+    assert np.array_equal(_friction_run(cls, lambda t: 1.2, friction_source=1), today)
+    # a friction estimate on the grid: the controller designed for that friction, bit for bit
+    snow = _friction_run(cls, lambda t: 0.35, friction_source=1)
+    assert np.array_equal(snow, _friction_run(cls, lambda t: 0.0, mu=0.35))
+    assert np.max(np.abs(snow[:, 2] - today[:, 2])) > 0.01          # the friction-limited yaw-rate reference
+    # floored at mu_floor, rounded to the grid; a drop and a recovery land on the designs of their frictions
+    assert np.array_equal(_friction_run(cls, lambda t: 0.01, friction_source=1, mu_floor=0.3),
+                          _friction_run(cls, lambda t: 0.0, mu=0.3))
+    switching = _friction_run(cls, lambda t: 0.343 if t < 1.2 else 1.0, friction_source=1)
+    assert np.array_equal(switching[:1200], snow[:1200])
+
+
+def test_the_sideslip_feedback_is_weighted_by_the_estimates_std():
+    def fb(std, **values):
+        ctl = LqrDycController(build(LqrDycConfig, {"vehicle": "park2018_sonata", **values}))
+        out = []
+        for k in range(1500):
+            s = math.sin(3.0 * k * 1e-3)
+            ctl.step(1e-3, 0.05 * s, 20.0, 0.02 * s, 0.1 * s, 0.1 * s, True, True, 0.0, std)
+            out.append(ctl.Mz_fb)
+        return np.array(out)
+
+    full = fb(0.03)                                   # beta_std_ref 0: the std is not used
+    assert np.array_equal(fb(0.0, beta_std_ref=0.01), full)                # std 0: full weight
+    none = fb(10.0, beta_std_ref=1e-4)                # weight 1e-10: the yaw-rate feedback alone
+    half = fb(0.01, beta_std_ref=0.01)                # weight 1/2
+    assert np.max(np.abs(full - none)) > 50.0
+    assert np.allclose(half, 0.5 * (full + none), rtol=0, atol=1e-6 * np.max(np.abs(full)))

@@ -11,6 +11,7 @@ eqs 1-2 with ``2 C`` per axle; Kim 2016 eq 9):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -53,12 +54,14 @@ class BicycleModel:
             c_f, c_r = (2.0 * c for c in vehicle.cornering_stiffness(mu))
         return cls(vehicle.m, vehicle.I_zz, vehicle.l_f, vehicle.l_r, c_f, c_r)
 
-    @property
+    # cached: the controllers ask for the gains several times per 1 ms step (instance __dict__, the frozen fields
+    # unchanged)
+    @cached_property
     def l(self) -> float:
         """Wheelbase [m]."""
         return self.l_f + self.l_r
 
-    @property
+    @cached_property
     def understeer_gradient(self) -> float:
         """Understeer gradient K = m (l_r / C_f - l_f / C_r) / l [rad s2/m] (Pi 2011 eq 32)."""
         return self.m * (self.l_r / self.C_f - self.l_f / self.C_r) / self.l

@@ -198,6 +198,8 @@ _ENTRIES = [
     _bool("beta_valid", "True when beta_hat may be used (the estimator's valid); false fades the sideslip "
           "feedback out", start=True),
     _bool("dyc_enable", "True to apply the yaw moment; false fades the command to zero", start=True),
+    _real("beta_std", "Angle", "1-sigma of beta_hat (the estimator's beta_hat_std); with beta_std_ref it weights "
+          "the sideslip feedback (0: full weight)", 0.0, 10.0),
 ]
 
 SIGNALS: dict[str, Signal] = {}
@@ -240,9 +242,12 @@ DRIVER_OUTPUTS = ("delta_f", "T_drive", "T_brake", "mu", "bank_angle", "F_wind_y
                   "delta_sw", "v_ref")
 ESTIMATOR_COMMON_OUTPUTS = ("beta_hat", "beta_hat_std", "vx_hat", "vy_hat", "yaw_rate_hat", "valid")
 CONTROLLER_INPUTS = ("delta_m", "vx_hat", "beta_hat", "yaw_rate_m")
-CONTROLLER_EXTRA_INPUTS = ("yaw_rate_hat", "beta_valid", "dyc_enable")
+CONTROLLER_EXTRA_INPUTS = ("yaw_rate_hat", "beta_valid", "dyc_enable", "mu_hat", "beta_std")
 """Inputs the controllers take beyond the contract's, each working when left unconnected (the
-estimated yaw rate is used only when the parameter ``yaw_rate_source`` asks for it)."""
+estimated yaw rate is used only when the parameter ``yaw_rate_source`` asks for it, the friction
+estimate only when ``friction_source`` does, and 0 there is no estimate; the sideslip's std, named
+apart from the estimators' ``beta_hat_std`` like ``beta_valid`` from ``valid`` so that it is connected
+from the controller's source only, when ``beta_std_ref`` is set, and 0 there is full trust)."""
 CONTROLLER_OUTPUTS = ("Mz_cmd", "beta_ref", "yaw_rate_ref")
 LQR_OUTPUTS = CONTROLLER_OUTPUTS + ("Mz_ff", "Mz_fb")
 """Outputs of the LQR direct-yaw-moment controller: the contract's plus the command's two parts."""

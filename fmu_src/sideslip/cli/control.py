@@ -12,6 +12,7 @@ __all__ = ["register"]
 
 def _cmd_control(args) -> int:
     from ..studies import control_eval as ce
+    from ..studies.jobs import ResultLog
 
     if args.plot:
         path = ce.plot_example(args.out, args.fmu_dir)
@@ -31,10 +32,14 @@ def _cmd_control(args) -> int:
     params = tuple(kv(args.param, "--param").items())
     if params:
         cases = [ce.with_controller_params(c, params) for c in cases]
-    rows = ce.control_evaluation(cases, args.engine, args.fmu_dir, args.workers, args.scheduler)
-    summary = ce.summarise(rows)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    journal = out / "rows.jsonl"
+    if not args.resume:
+        journal.unlink(missing_ok=True)
+    rows = ce.control_evaluation(cases, args.engine, args.fmu_dir, args.workers, args.scheduler,
+                                 log=ResultLog(journal))
+    summary = ce.summarise(rows)
     (out / "rows.json").write_text(json.dumps(rows, indent=1))
     (out / "summary.json").write_text(json.dumps(summary, indent=1))
     text = ce.format_control_evaluation(summary)
@@ -51,7 +56,8 @@ def register(sub) -> None:
                          "sensors and model mismatch: FMVSS 126, brake in a turn on snow, acceleration in a turn, "
                          "launch into a turn, straight drive, changing friction", formatter_class=EXAMPLES_FORMAT,
                          epilog="examples:\n  sideslip control --quick\n  sideslip control --source 'LQR / truth' "
-                         "--source 'ESC / truth' --factors 5,6.5\n  sideslip control --param q_gamma=3e6 --workers 2")
+                         "--source 'ESC / truth' --factors 5,6.5\n  sideslip control --param q_gamma=3e6 --workers 2\n"
+                         "  sideslip control --resume   # go on where a stopped run stopped")
     case_args(ctl, "1 seed, FMVSS 126 at 3.5A, 5A and 6.5A", "default 2, quick 1",
               "sensors or sensors+mismatch (default both)", "only this scenario besides FMVSS 126")
     ctl.add_argument("--source", action="append", help="only this row, e.g. 'LQR / truth' (repeatable)")
@@ -62,7 +68,10 @@ def register(sub) -> None:
     ctl.add_argument("--engine", choices=("library", "fmpy"), default="library",
                      help="run the models in-process (default) or the FMUs through fmpy")
     ctl.add_argument("--plot", action="store_true", help="only write the command-split figure of the docs")
-    ctl.add_argument("--out", default="out/control", help="output folder (default %(default)s)")
+    ctl.add_argument("--out", default="out/control", help="output folder (default %(default)s); every case's "
+                     "figures go to rows.jsonl in it as the case finishes")
+    ctl.add_argument("--resume", action="store_true", help="keep the cases rows.jsonl in --out already holds (a run "
+                     "that was stopped goes on where it stopped) instead of starting over")
     ctl.add_argument("--workers", type=count, default=2, help="parallel processes (default %(default)s)")
     ctl.add_argument("--scheduler", help="address of a Dask scheduler instead of local processes")
     ctl.add_argument("--json", action="store_true", help="print the summary as JSON instead of the tables")

@@ -24,6 +24,19 @@ this module turns it into the command the motors get:
   can give, ``motor_T_max t / R_w`` (the plant's motors apply ``+-dT`` on the two wheels of their
   axle, each limited to ``motor_T_max``).
 
+* **friction** (``friction_source = 1``): the reference's friction limit, the bicycle model whose
+  steady state it follows (the nominal cornering stiffness on that friction) and the law's friction-
+  dependent design (the LQR's gain schedule, the ESC's sideslip bound) follow the input ``mu_hat``, an
+  estimator's friction estimate (SideslipFusion's), within ``[mu_floor, mu]`` and rounded to
+  :data:`FRICTION_STEPS`; each grid value's design is made once, when first used.  ``mu_hat`` not above
+  0 (left unconnected) is no estimate: the parameter ``mu`` holds, as it does with ``friction_source = 0``
+  (the default), so a controller without a friction estimate behaves as before.
+
+* **trust in the sideslip estimate** (``beta_std_ref > 0``): the sideslip feedback is weighted also by
+  ``s^2 / (s^2 + beta_std^2)`` with ``s = beta_std_ref``, the input ``beta_std`` being the estimator's
+  own 1-sigma (its ``beta_hat_std``): an estimate as uncertain as ``s`` gets half the feedback, a sure
+  one all of it.  Off by default (and ``beta_std`` left unconnected reads 0: full weight).
+
 A controller may switch these off (``shaped = False``, the LQR's published profile): then the
 speed is used as it comes, the command is on above ``v_min`` and off below, ``beta_valid`` is
 ignored, no offset is learnt and only the saturation remains.
@@ -40,8 +53,8 @@ from ..signals import CONTROLLER_EXTRA_INPUTS, CONTROLLER_INPUTS
 from ..vehicles import VehicleConfig, VehicleParams
 from .reference import ReferenceModel
 
-__all__ = ["SCHEDULE_ACCEL", "STRAIGHT_YAW_RATE", "STRAIGHT_STEER", "STEER_OFFSET_MAX", "YawMomentConfig",
-           "yaw_moment_limit", "smoothstep", "Ramp", "YawMomentController"]
+__all__ = ["SCHEDULE_ACCEL", "STRAIGHT_YAW_RATE", "STRAIGHT_STEER", "STEER_OFFSET_MAX", "FRICTION_STEPS",
+           "YawMomentConfig", "yaw_moment_limit", "smoothstep", "Ramp", "YawMomentController"]
 
 SCHEDULE_ACCEL = 15.0
 """[m/s2] fastest change of the schedule speed."""
@@ -49,6 +62,8 @@ STRAIGHT_YAW_RATE, STRAIGHT_STEER = math.radians(1.0), 0.02
 """[rad/s], [rad]: driving counts as straight for the steering-offset learning below these."""
 STEER_OFFSET_MAX = 0.01
 """[rad] largest steering offset learnt (road-wheel angle; about 10 deg at the handwheel)."""
+FRICTION_STEPS = 20
+"""Friction grid of ``friction_source = 1``: ``mu_hat`` is rounded to ``k / FRICTION_STEPS`` (0.05)."""
 
 
 @dataclass(frozen=True)
@@ -72,6 +87,13 @@ class YawMomentConfig(VehicleConfig):
     t_steer_offset: float = param(10.0, "Time", "Time constant of the steering-offset learning in straight "
                                   "driving (0: off)", ge=0, le=1000)
     v_max: float = param(70.0, "Velocity", "Top of the speed range of the gain schedule", gt=5, le=150)
+    friction_source: int = param(0, "Dimensionless", "Friction the reference and the design follow: 0 the "
+                                 "parameter mu, 1 the input mu_hat (an estimator's estimate) within [mu_floor, mu]",
+                                 choices=(0, 1))
+    mu_floor: float = param(0.2, "FrictionCoefficient", "Lowest friction the input mu_hat is followed down to "
+                            "(mu where that is lower)", ge=0.05, le=1.5)
+    beta_std_ref: float = param(0.0, "Angle", "Std of the sideslip estimate (input beta_std) at which its "
+                                "feedback gets half weight (0: the std is not used)", ge=0, le=0.5)
 
     def __post_init__(self):
         check(self)
@@ -130,11 +152,37 @@ class YawMomentController(SampledModel):
         self._dv = SCHEDULE_ACCEL * self.Ts
         self._dmz = cfg.Mz_rate_max * self.Ts
         self._k_offset = self.Ts / cfg.t_steer_offset if cfg.t_steer_offset > 0 else 0.0
+        self.mu_design = cfg.mu                    # the friction the reference and the design follow now
+        self._designs: dict[float, dict] = {}      # grid friction -> its design (friction_source = 1)
+
+    def _design(self, mu: float) -> dict:
+        """What depends on the friction ``mu``: attribute name -> value (a subclass adds its law's design)."""
+        return {"model": BicycleModel.from_vehicle(self.vehicle, mu, nominal=True)}
+
+    def _follow_friction(self, mu_hat: float) -> None:
+        """Set the reference and the design for the friction estimate ``mu_hat`` (module docstring)."""
+        cfg = self.config
+        floor = cfg.mu_floor if cfg.mu_floor < cfg.mu else cfg.mu
+        if not mu_hat > 0.0 or mu_hat >= cfg.mu:
+            mu = cfg.mu
+        else:
+            mu = round((mu_hat if mu_hat > floor else floor) * FRICTION_STEPS) / FRICTION_STEPS
+            mu = floor if mu < floor else (cfg.mu if mu > cfg.mu else mu)
+        if mu == self.mu_design:
+            return
+        design = self._designs.get(mu)
+        if design is None:
+            design = self._designs[mu] = self._design(mu)
+        for name, value in design.items():
+            setattr(self, name, value)
+        self.reference.model, self.reference.mu = self.model, mu
+        self.mu_design = mu
 
     def reset(self) -> None:
-        """Zero command and references; the transfer weights at 0 (fading in)."""
+        """Zero command and references; the transfer weights at 0 (fading in); the design at ``mu``."""
         self._reset_clock()
         self._reset_samples()
+        self._follow_friction(self.config.mu)
         self.reference.reset()
         rate = self.Ts / self.config.t_transfer
         self.enabled, self.beta_weight = Ramp(rate), Ramp(rate)
@@ -150,8 +198,10 @@ class YawMomentController(SampledModel):
         schedule speed ``v`` (within ``[v_min, v_max]``), the sideslip feedback weighted by ``w_beta``."""
         raise NotImplementedError
 
-    def _sample(self, delta, vx_hat, beta_hat, yaw_rate, beta_valid, enable) -> float:
+    def _sample(self, delta, vx_hat, beta_hat, yaw_rate, beta_valid, enable, mu_hat=0.0, beta_std=0.0) -> float:
         cfg = self.config
+        if cfg.friction_source:
+            self._follow_friction(mu_hat)
         if self.shaped:
             if self.v_schedule != self.v_schedule:             # the first sample
                 self.v_schedule = vx_hat
@@ -164,6 +214,9 @@ class YawMomentController(SampledModel):
             vs = self.v_schedule = vx_hat
             w = 1.0 if enable and vx_hat >= cfg.v_min else 0.0
             w_beta = 1.0
+        if cfg.beta_std_ref > 0.0:
+            ref2 = cfg.beta_std_ref * cfg.beta_std_ref
+            w_beta *= ref2 / (ref2 + beta_std * beta_std)
         v = min(max(vs, cfg.v_min), cfg.v_max)
         beta_ref, gamma_ref = self.reference.step(delta, v)
         a, b = self._law(delta, v, beta_ref, gamma_ref, beta_hat, yaw_rate, w_beta)
@@ -187,7 +240,8 @@ class YawMomentController(SampledModel):
         self.Mz = lim if n > lim else (-lim if n < -lim else n)
 
     def step(self, h: float, delta_m: float, vx_hat: float, beta_hat: float, yaw_rate_m: float,
-             yaw_rate_hat: float = 0.0, beta_valid: bool = True, dyc_enable: bool = True) -> None:
+             yaw_rate_hat: float = 0.0, beta_valid: bool = True, dyc_enable: bool = True,
+             mu_hat: float = 0.0, beta_std: float = 0.0) -> None:
         """Advance by ``h`` [s]; runs a sample at every multiple of ``Ts_control``.
 
         A sample with a non-finite input (among those it uses) asks for a zero command and holds
@@ -198,7 +252,7 @@ class YawMomentController(SampledModel):
         yaw_rate = yaw_rate_hat if self.config.yaw_rate_source else yaw_rate_m
         for _ in range(self._samples_due(t)):
             if math.isfinite(delta_m + vx_hat + beta_hat + yaw_rate):
-                n = self._sample(delta_m, vx_hat, beta_hat, yaw_rate, beta_valid, dyc_enable)
+                n = self._sample(delta_m, vx_hat, beta_hat, yaw_rate, beta_valid, dyc_enable, mu_hat, beta_std)
             else:
                 n = self._parts[0] = self._parts[1] = 0.0
             self._command(n)

@@ -91,6 +91,13 @@ class LqrDycController(YawMomentController):
             self.ff = ScheduledFeedforward(self.model, cfg.tau_beta, lowpass, self.Ts, cfg.v_min, cfg.v_max)
         self.reset()
 
+    def _design(self, mu: float) -> dict:
+        """The bicycle model on friction ``mu`` and its LQR gain schedule (the feed-forward stays at ``mu``)."""
+        design = super()._design(mu)
+        cfg = self.config
+        design["gains"] = gain_schedule(design["model"], cfg.q_beta, cfg.q_gamma, cfg.q_N, cfg.v_min, cfg.v_max)
+        return design
+
     def reset(self) -> None:
         """Zero command, references and filter state (see :meth:`YawMomentController.reset`)."""
         super().reset()

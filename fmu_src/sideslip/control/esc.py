@@ -79,6 +79,13 @@ class BaselineEsc(YawMomentController):
         self._bleed = math.exp(-self.Ts / cfg.T_i)
         self.reset()
 
+    def _design(self, mu: float) -> dict:
+        """The bicycle model on friction ``mu`` and, unless ``beta_limit`` is given, its sideslip bound."""
+        design = super()._design(mu)
+        if not self.config.beta_limit > 0:
+            design["beta_limit"] = sideslip_limit(mu)
+        return design
+
     def reset(self) -> None:
         """Zero command, references and integral (see :meth:`YawMomentController.reset`)."""
         super().reset()

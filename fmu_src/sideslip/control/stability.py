@@ -69,6 +69,8 @@ class StabilityController(Model):
         self._ctl_ix = (pos["delta_m"], pos["yaw_rate_m"], pos["dyc_enable"])
         self._est_u = [0.0] * len(self._est_ix)
         self._yaw_rate_hat, self._valid = (self.estimator.output_names.index(n) for n in ("yaw_rate_hat", "valid"))
+        # the embedded estimator's friction estimate, for friction_source = 1 (-1: it has none)
+        self._mu_hat = self.estimator.output_names.index("mu_hat") if "mu_hat" in self.estimator.output_names else -1
         self.reset()
 
     def reset(self) -> None:
@@ -88,5 +90,6 @@ class StabilityController(Model):
         est.step(h, *eu)
         i_delta, i_gyro, i_enable = self._ctl_ix
         out = est.outputs()
-        ctl.step(h, u[i_delta], est.vx, est.beta, u[i_gyro], out[self._yaw_rate_hat], out[self._valid], u[i_enable])
+        ctl.step(h, u[i_delta], est.vx, est.beta, u[i_gyro], out[self._yaw_rate_hat], out[self._valid], u[i_enable],
+                 out[self._mu_hat] if self._mu_hat >= 0 else 0.0, est.beta_std)
         self._out = ctl.outputs() + out[:len(ESTIMATOR_COMMON_OUTPUTS)]

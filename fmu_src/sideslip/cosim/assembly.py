@@ -232,6 +232,8 @@ def scenario_components(scenario: Scenario, estimators=(), controller: str | Non
             for truth, name in TRUTH_SOURCE.items():
                 if name in inputs:
                     connections.append((f"plant.{truth}", f"controller.{name}"))
+            if "mu_hat" in inputs:                   # the road's friction as the truth's friction estimate
+                connections.append(("driver.mu", "controller.mu_hat"))
         elif source not in dict(pairs):
             raise KeyError(f"control source {source!r}: use 'truth' or one of the estimators {', '.join(estimators)}")
         else:
@@ -241,6 +243,8 @@ def scenario_components(scenario: Scenario, estimators=(), controller: str | Non
                     connections.append((f"{source}.{name}", f"controller.{name}"))
             if "beta_valid" in inputs and "valid" in outputs:
                 connections.append((f"{source}.valid", "controller.beta_valid"))
+            if "beta_std" in inputs and "beta_hat_std" in outputs:
+                connections.append((f"{source}.beta_hat_std", "controller.beta_std"))
         if "yaw_rate_hat" in inputs and "yaw_rate_source" in {f.name for f, _ in
                                                              declared_fields(fmu_spec(controller).config_class)}:
             comps[-1].parameters.setdefault("yaw_rate_source", 1)     # its source provides an estimated yaw rate

@@ -15,6 +15,9 @@ mingw-w64 cross compiler (``x86_64-w64-mingw32-gcc``, or ``$SIDESLIP_MINGW_CC``)
 itself, see the shim's comment) with pythonfmu's DLL beside it as ``pythonfmu_export.dll``;
 without it pythonfmu's stock win64 binary is kept.
 
+Every FMU carries the plant's compiled step (:mod:`sideslip.plant.kernel`) for the platforms whose compiler is
+there, in its package's ``plant/native/<platform>/``.
+
 Builds are cached: an FMU is rebuilt when the hash of the files it carries changes.
 
 Each FMU carries the package under a name of its own build, ``sideslip_<hash>`` (the first 12
@@ -43,12 +46,17 @@ from pathlib import Path
 from .bundle import PACKAGE_DIR, bundled_files, fmu_requirements, wrapper_script
 from .catalogue import CATALOGUE, fmu_spec
 
-__all__ = ["build_fmus", "ensure_fmus", "DEFAULT_OUT", "compile_shim", "python_config", "BuildError"]
+__all__ = ["build_fmus", "ensure_fmus", "DEFAULT_OUT", "compile_shim", "compile_kernel", "python_config", "BuildError"]
 
 DEFAULT_OUT = Path(os.environ.get("SIDESLIP_FMU_DIR") or Path("build") / "fmus")
 """Where the FMUs are built and found by default: ``$SIDESLIP_FMU_DIR``, else ``build/fmus`` under the working
 folder (a notebook or a script in another folder can share one build through the variable)."""
 SHIM_SOURCE = PACKAGE_DIR / "fmi" / "native" / "fmi2_status_shim.c"
+KERNEL_SOURCE = PACKAGE_DIR / "plant" / "native" / "plant_kernel.c"
+"""The plant's compiled step (:mod:`sideslip.plant.kernel`), built for each platform into the FMUs that run it."""
+KERNEL_MODULE = PACKAGE_DIR / "plant" / "kernel.py"
+FP_FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
+"""The kernel computes the same doubles as its Python reference: IEEE arithmetic, no fused multiply-adds."""
 PLATFORMS = {"linux64": ".so", "win64": ".dll"}
 """The binaries the shim replaces: platform folder -> file extension."""
 INNER_NAME = "pythonfmu_export"
@@ -138,11 +146,30 @@ def compile_shim(work: Path, guid: str = "", platform: str = "linux64") -> tuple
     flags = ["-fPIC", "-pthread", "-fvisibility=hidden"] if platform == "linux64" else \
         ["-s", "-static-libgcc", "-D__USE_MINGW_ANSI_STDIO=1"]          # no DLL of the compiler's own
     libs = ["-ldl"] if platform == "linux64" else ["-ladvapi32"]
-    cmd = [cc, "-shared", "-O2", *flags, f"-I{work}", f"-I{_fmpy_headers()}", str(SHIM_SOURCE), "-o", str(out), *libs]
+    _compile([cc, "-shared", "-O2", *flags, f"-I{work}", f"-I{_fmpy_headers()}", str(SHIM_SOURCE), "-o", str(out),
+              *libs], f"the fmi2 status shim ({platform})")
+    return out, f"{platform} status shim compiled with {cc}"
+
+
+def compile_kernel(work: Path, platform: str = "linux64") -> Path | None:
+    """Compile the plant's step (:data:`KERNEL_SOURCE`) for a platform into ``work``; None without its compiler
+    (the plant then runs its Python reference there)."""
+    from ..plant.kernel import LIBRARY_NAME
+
+    cc = _find_cc(platform)
+    if not cc:
+        return None
+    out = work / f"{LIBRARY_NAME}{PLATFORMS[platform]}"
+    flags = ["-fPIC", "-fvisibility=hidden"] if platform == "linux64" else ["-s", "-static-libgcc"]
+    _compile([cc, "-shared", *FP_FLAGS, *flags, str(KERNEL_SOURCE), "-o", str(out), "-lm"],
+             f"the plant kernel ({platform})")
+    return out
+
+
+def _compile(cmd: list[str], what: str) -> None:
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
-        raise BuildError(f"compiling the fmi2 status shim ({platform}) failed:\n{' '.join(cmd)}\n{res.stderr}")
-    return out, f"{platform} status shim compiled with {cc}"
+        raise BuildError(f"compiling {what} failed:\n{' '.join(cmd)}\n{res.stderr}")
 
 
 def _source_hash(name: str, shims: tuple[str, ...]) -> str:
@@ -150,7 +177,8 @@ def _source_hash(name: str, shims: tuple[str, ...]) -> str:
 
     spec = fmu_spec(name)
     h = hashlib.sha256()
-    files = [wrapper_script(spec), SHIM_SOURCE, *bundled_files(spec)]
+    bundled = bundled_files(spec)
+    files = [wrapper_script(spec), SHIM_SOURCE, *bundled, *([KERNEL_SOURCE] if KERNEL_MODULE in bundled else [])]
     for p in files:
         h.update(str(p.relative_to(PACKAGE_DIR.parent) if p.is_relative_to(PACKAGE_DIR.parent) else p.name)
                  .encode())
@@ -182,6 +210,13 @@ def _install_shim(fmu: Path, model_id: str, shim: Path, platform: str) -> None:
     tmp.replace(fmu)
 
 
+def _add_kernels(fmu: Path, package: str, kernels: dict[str, Path]) -> None:
+    """Add the plant's compiled step of each platform where :mod:`sideslip.plant.kernel` looks for it."""
+    with zipfile.ZipFile(fmu, "a", zipfile.ZIP_DEFLATED) as z:
+        for platform, lib in kernels.items():
+            z.write(lib, f"resources/{package}/plant/native/{platform}/{lib.name}")
+
+
 def _add_bytecode(fmu: Path, pkg: Path) -> None:
     """Add the bundled package's bytecode to the FMU's ``resources/``, validated by the sources' hashes (a host
     that unpacks an FMU gives its files new times): a host on this Python version loads it instead of compiling
@@ -201,7 +236,7 @@ def _guid(fmu: Path) -> str:
         return ET.fromstring(z.read("modelDescription.xml")).get("guid", "")
 
 
-def _build_one(name: str, out_dir: Path, shims: tuple[str, ...], tag: str) -> Path:
+def _build_one(name: str, out_dir: Path, shims: tuple[str, ...], tag: str, kernels: dict[str, Path]) -> Path:
     """Build into a private folder, then move into ``out_dir`` atomically (a concurrent reader
     never sees a half-written FMU)."""
     from pythonfmu.builder import FmuBuilder
@@ -228,6 +263,8 @@ def _build_one(name: str, out_dir: Path, shims: tuple[str, ...], tag: str) -> Pa
                                         needsExecutionTool=False, canGetAndSetFMUstate=True,
                                         canSerializeFMUstate=True))
         _add_bytecode(fmu, pkg)
+        if KERNEL_MODULE in bundled_files(spec):
+            _add_kernels(fmu, package, kernels)
         # compiled per FMU (it checks the FMU's own GUID), the platforms' compilers side by side: they are
         # most of a build's time
         guid = _guid(fmu)
@@ -307,11 +344,13 @@ def build_fmus(names=None, out_dir: Path | str = DEFAULT_OUT, force: bool = Fals
                     else _NO_COMPILER[platform])
             from ..progress import progress_bar
 
+            kernel_dir = Path(tempfile.mkdtemp(prefix="sideslip_kernel_"))
+            kernels = {p: lib for p in shims if (lib := compile_kernel(kernel_dir, p)) is not None}
             with progress_bar(len(todo), "build", "FMUs", enabled=None if log is print else False) as bar:
                 for name in todo:
                     bar.set_postfix_str(name)
                     try:
-                        fmu = _build_one(name, out_dir, shims, digests[name][:12])
+                        fmu = _build_one(name, out_dir, shims, digests[name][:12], kernels)
                     except BuildError:
                         raise
                     except Exception as exc:
@@ -322,6 +361,7 @@ def build_fmus(names=None, out_dir: Path | str = DEFAULT_OUT, force: bool = Fals
                     else:
                         log(f"{name}: built {fmu}")
                     bar.update()
+            shutil.rmtree(kernel_dir, ignore_errors=True)
     return [out_dir / f"{name}.fmu" for name in names]
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from math import atan, atan2, cos, hypot, sin
 from dataclasses import dataclass
 
 import numpy as np
@@ -165,7 +166,19 @@ class Driver(Model):
         self._vlim = self._curve_speed_profile()
         path = self.plan.path
         self._crown_line = (float(path.x[0]), float(path.y[0]), math.sin(path.psi[0]), math.cos(path.psi[0]))
+        self._constants()
         self.reset()
+
+    def _constants(self) -> None:
+        """Per-step constants, each computed as the step's expression would compute it (the same doubles)."""
+        cfg, v = self.config, self.vehicle
+        tables = (self._mu, self._bank, self._fw, self._mw)
+        # the environment when none of its tables changes in time: _pack then skips four table look-ups
+        self._env = tuple(table(0.0) for table in tables) if all(len(t.points) == 1 for t in tables) else None
+        self._rate = cfg.steer_rate_max / v.steering_ratio          # handwheel rate at the road wheels [rad/s]
+        self._roll_force = v.m * GRAVITY * v.f_rr                    # rolling resistance [N]
+        self._drag = 0.5 * v.rho_air * v.CdA                         # [kg/m]
+        self._two_l = 2.0 * v.l
 
     def _curve_speed_profile(self) -> list | None:
         """Speed limit per path sample from curvature, propagated backwards with decel_max."""
@@ -197,6 +210,7 @@ class Driver(Model):
         self.maneuver = parse_maneuver(self.config.maneuver)
         self.plan = self.maneuver.plan(self.vehicle)
         self._vlim = self._curve_speed_profile()
+        self._constants()
 
     def reset(self) -> None:
         """Initial state at t = 0 with outputs for t = 0."""
@@ -228,56 +242,68 @@ class Driver(Model):
         return -self.config.road_crown * math.tanh(left / 0.5)
 
     def _pack(self, t, delta, t_drive, t_brake, v_ref) -> tuple:
-        return (delta, t_drive, t_brake, self._mu(t), self._bank(t) + self._crown, self._fw(t), self._mw(t),
+        env = self._env
+        if env is None:
+            env = (self._mu(t), self._bank(t), self._fw(t), self._mw(t))
+        return (delta, t_drive, t_brake, env[0], env[1] + self._crown, env[2], env[3],
                 delta * self.vehicle.steering_ratio, v_ref)
 
     def _pure_pursuit(self, vx: float, px: float, py: float, yaw: float) -> float:
-        path, cfg, v = self.plan.path, self.config, self.vehicle
+        path, cfg = self.plan.path, self.config
         self._idx, station = path.project(px, py, self._idx)
-        look = max(cfg.preview_min, cfg.preview_time * abs(vx))
+        look = cfg.preview_time * (vx if vx > 0.0 else -vx)
+        if look < cfg.preview_min:
+            look = cfg.preview_min
         tx, ty = path.point_at(station + look)
         dx, dy = tx - px, ty - py
-        c, s = math.cos(yaw), math.sin(yaw)
+        c, s = cos(yaw), sin(yaw)
         lx, ly = c * dx + s * dy, -s * dx + c * dy
-        alpha = math.atan2(ly, lx)
-        return math.atan(2.0 * v.l * math.sin(alpha) / math.hypot(lx, ly))
+        return atan(self._two_l * sin(atan2(ly, lx)) / hypot(lx, ly))
 
     def step(self, h: float, vx: float, X: float, Y: float, yaw: float) -> None:
         """Advance by ``h`` [s] (> 0); arguments are the latest plant truth (``vx``, position, yaw)."""
         t = self._tick(h)
-        cfg, v, plan = self.config, self.vehicle, self.plan
-        self._crown = self._crown_bank(X, Y)
+        cfg, plan = self.config, self.plan
+        if cfg.road_crown != 0.0:
+            self._crown = self._crown_bank(X, Y)
 
         # ---- steering
         if plan.steer_sw is not None and t >= plan.t_open:
             if self._delta_hold is None:
                 self._delta_hold = self._delta
-            target = self._delta_hold + plan.steer_sw(t) / v.steering_ratio
+            target = self._delta_hold + plan.steer_sw(t) / self.vehicle.steering_ratio
         else:
             target = self._pure_pursuit(vx, X, Y, yaw)
-        max_step = cfg.steer_rate_max / v.steering_ratio * h
-        delta = self._delta + min(max(target - self._delta, -max_step), max_step)
-        self._delta = delta = min(max(delta, -0.7), 0.7)
+        max_step = self._rate * h
+        change = target - self._delta
+        change = max_step if change > max_step else (-max_step if change < -max_step else change)
+        delta = self._delta + change
+        self._delta = delta = 0.7 if delta > 0.7 else (-0.7 if delta < -0.7 else delta)
 
         # ---- speed
         v_ref = plan.v_ref(t)
         if self._vlim is not None:
-            v_ref = min(v_ref, self._vlim[self._idx])
+            limit = self._vlim[self._idx]
+            if limit < v_ref:
+                v_ref = limit
         dv_ref = (v_ref - self._v_prev) / h
         self._v_prev = v_ref
-        if v_ref <= 0.05 and abs(vx) < 0.3:
+        speed = vx if vx >= 0 else -vx
+        if v_ref <= 0.05 and speed < 0.3:
             self._integ = 0.0
             self._out = self._pack(t, delta, 0.0, self._hold_torque(), v_ref)
             return
         err = v_ref - vx
         a_cmd = dv_ref + cfg.speed_kp * err + cfg.speed_ki * self._integ
-        f_res = v.m * GRAVITY * v.f_rr * (1.0 if vx >= 0 else -1.0) + 0.5 * v.rho_air * v.CdA * vx * abs(vx)
-        a_lo = -cfg.decel_max
+        f_res = self._roll_force * (1.0 if vx >= 0 else -1.0) + self._drag * vx * speed
         a_hi = 0.0 if t >= plan.brake_only_from else cfg.accel_max
-        force = v.m * a_cmd + f_res
-        f_lo, f_hi = v.m * a_lo, v.m * a_hi
+        m = self.vehicle.m
+        force = m * a_cmd + f_res
+        f_lo, f_hi = m * -cfg.decel_max, m * a_hi
         if f_lo < force < f_hi:
             self._integ += err * h                       # no wind-up while saturated
-        force = min(max(force, f_lo), f_hi)
-        torque = force * v.R_w if t < plan.coast_from else 0.0
-        self._out = self._pack(t, delta, max(torque, 0.0), max(-torque, 0.0), v_ref)
+        else:
+            force = f_lo if force <= f_lo else f_hi
+        torque = force * self.vehicle.R_w if t < plan.coast_from else 0.0
+        # max(torque, 0.0) and max(-torque, 0.0), signed zeros included
+        self._out = self._pack(t, delta, 0.0 if 0.0 > torque else torque, 0.0 if 0.0 > -torque else -torque, v_ref)

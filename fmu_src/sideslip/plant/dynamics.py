@@ -325,11 +325,12 @@ class PlantModel:
         vxt3 = vx - tr2 * r
         vxt4 = vx + tr2 * r
         # friction with the velocity effect of eq 7
-        if eps_v > 0.0:
-            mu1 = friction(mu, eps_v, sqrt((vxt1 - R * w1) ** 2 + vyt1 * vyt1))
-            mu2 = friction(mu, eps_v, sqrt((vxt2 - R * w2) ** 2 + vyt2 * vyt2))
-            mu3 = friction(mu, eps_v, sqrt((vxt3 - R * w3) ** 2 + vyr * vyr))
-            mu4 = friction(mu, eps_v, sqrt((vxt4 - R * w4) ** 2 + vyr * vyr))
+        if eps_v > 0.0:         # squares as products: libm's pow(x, 2) is not always the rounded x * x
+            sl1, sl2, sl3, sl4 = vxt1 - R * w1, vxt2 - R * w2, vxt3 - R * w3, vxt4 - R * w4
+            mu1 = friction(mu, eps_v, sqrt(sl1 * sl1 + vyt1 * vyt1))
+            mu2 = friction(mu, eps_v, sqrt(sl2 * sl2 + vyt2 * vyt2))
+            mu3 = friction(mu, eps_v, sqrt(sl3 * sl3 + vyr * vyr))
+            mu4 = friction(mu, eps_v, sqrt(sl4 * sl4 + vyr * vyr))
         else:
             mu1 = mu2 = mu3 = mu4 = mu
         formula = self.mf

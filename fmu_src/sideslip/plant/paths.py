@@ -52,12 +52,9 @@ class Path:
         onto the adjacent segment, so it moves smoothly instead of in sample-sized jumps.
         """
         xl, yl, sl, n, closed = self._xl, self._yl, self._sl, len(self._xl), self.closed
-
-        def dist(i):
-            return (xl[i] - px) ** 2 + (yl[i] - py) ** 2
-
-        i = hint % n if closed else min(max(hint, 0), n - 1)
-        d = dist(i)
+        # (the distances inline: this runs every driver step, and a call costs as much as the arithmetic)
+        i = hint % n if closed else (0 if hint < 0 else (n - 1 if hint > n - 1 else hint))
+        d = (xl[i] - px) ** 2 + (yl[i] - py) ** 2
         for direction in (1, -1):
             while True:
                 j = i + direction
@@ -65,7 +62,7 @@ class Path:
                     j %= n
                 elif not 0 <= j < n:
                     break
-                dj = dist(j)
+                dj = (xl[j] - px) ** 2 + (yl[j] - py) ** 2
                 if dj >= d:
                     break
                 i, d = j, dj
@@ -94,7 +91,8 @@ class Path:
             psi = self.psi[i]
             over = station - sl[i]
             return xl[i] + over * math.cos(psi), yl[i] + over * math.sin(psi)
-        i = min(max(bisect_right(sl, station) - 1, 0), len(sl) - 2)
+        i = bisect_right(sl, station) - 1
+        i = 0 if i < 0 else (len(sl) - 2 if i > len(sl) - 2 else i)
         w = (station - sl[i]) / (sl[i + 1] - sl[i])
         return xl[i] + w * (xl[i + 1] - xl[i]), yl[i] + w * (yl[i + 1] - yl[i])
 

@@ -10,6 +10,9 @@ step from the stiffest mode, the wheel spin ``R^2 C_sigma / (I_w max(|R w|, v_mi
 (plus brake regularisation), so that ``lambda h_sub <= z_max``.  At road speeds one
 RK4 step per 1 ms suffices; at walking speed it takes several.  The in-wheel motor
 torque follows its first-order lag analytically (exact within a step).
+
+The step runs compiled (:mod:`sideslip.plant.kernel`, the same doubles) where this platform's binary is
+present and ``compiled`` is 1; this module's Python is the reference it is checked against.
 """
 from __future__ import annotations
 
@@ -23,7 +26,9 @@ from ..params import check, param
 from ..signals import PLANT_INPUTS, PLANT_OUTPUTS
 from ..units import wrap_angle
 from ..vehicles import VehicleConfig, VehicleParams
-from .dynamics import N_STATES, PlantInputs, PlantModel, St
+from . import kernel
+from .dynamics import MAGIC_FORMULA, N_STATES, PlantInputs, PlantModel, St
+from .tires import MagicFormula
 
 __all__ = ["St", "PlantConfig", "VehiclePlant"]
 
@@ -50,6 +55,9 @@ class PlantConfig(VehicleConfig):
                               ge=1, le=10000)
     tire_model: int = param(0, "Dimensionless", "Tire model: 0 Dugoff (the plant of Pi 2011, the papers' tables), "
                             "1 Pacejka Magic Formula 5.2 with combined slip", choices=(0, 1))
+    compiled: int = param(1, "Dimensionless", "Step computation: 1 compiled C where the FMU carries it for this "
+                          "platform (the same doubles, an eighth of the instructions), 0 the pure-Python reference",
+                          choices=(0, 1))
 
     def __post_init__(self):
         check(self)
@@ -84,7 +92,33 @@ class VehiclePlant(Model):
         # stiffness of the wheel-spin mode: R^2 C_sigma / (I_w max(|R w|, v_min)) + brake term
         self._stiff = (v.R_w, cfg.v_min, v.R_w * v.R_w * v.C_sigma / v.I_w, 1.0 / (v.I_w * cfg.omega_eps),
                        1.0 / cfg.z_max, cfg.max_substeps)
+        self._native = None               # the compiled step's bound method (an FMU state takes it from a template)
+        if cfg.compiled and kernel.available():
+            self._native = kernel.PlantKernel(self._kernel_constants()).step
         self.reset()
+
+    @property
+    def compiled(self) -> bool:
+        """Whether the steps run the compiled kernel (:mod:`sideslip.plant.kernel`)."""
+        return self._native is not None
+
+    def _kernel_constants(self) -> list[float]:
+        """The constants of the compiled step, in the order of the C ``Constants`` struct (plant_kernel.c)."""
+        d, v = self.dynamics, self.vehicle
+        no_mf = [0.0] * len(MagicFormula._fields)
+        mf_front, mf_rear = d.mf if d.tire_model == MAGIC_FORMULA else (no_mf, no_mf)
+        return [*d.k, *d.splits, *d.static, *mf_front, *mf_rear, *self._stiff, self._motor_arm, v.motor_T_max,
+                v.motor_tau, float(d.tire_model), GRAVITY]
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_native"] = None           # ctypes buffers do not pickle: made again by __setstate__
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        if self.config.compiled and kernel.available():
+            self._native = kernel.PlantKernel(self._kernel_constants()).step
 
     # ------------------------------------------------------------------ state handling
     def reset(self) -> None:
@@ -136,8 +170,16 @@ class VehiclePlant(Model):
         if not math.isfinite(delta_f + T_drive + T_brake + Mz_dyc + mu + bank_angle + F_wind_y + M_wind_z):
             raise ValueError("plant inputs must be finite")
         self._tick(h)
-        v = self.vehicle
         self._u = u = (delta_f, T_drive, T_brake, mu, bank_angle, F_wind_y, M_wind_z)    # PlantInputs order
+        if self._native is not None:
+            if self._mu_cache[0] != mu:
+                self._mu_cache = (mu, self.vehicle.cornering_stiffness(mu))
+            caf, car = self._mu_cache[1]
+            self.n_substeps, self.x, self.dT_motor, self._out = self._native(
+                self.x, self.dT_motor, (delta_f, T_drive, T_brake, Mz_dyc, mu, bank_angle, F_wind_y, M_wind_z),
+                caf, car, h)
+            return
+        v = self.vehicle
         held = self._held(u)
         # in-wheel motors: Mz = (t / R) dT, saturated, first-order lag (exact)
         dT_cmd = Mz_dyc / self._motor_arm

@@ -6,18 +6,20 @@ given a scheduler address, on a Dask distributed cluster, yielding ``(item, resu
 completion order with an optional progress bar on stderr; :func:`map_ordered` returns the
 results in the items' order.  Local workers are spawned, not forked: a forked child would
 inherit the parent's loaded FMUs and pythonfmu's interpreter state, which is not fork-safe.
-:class:`CsvLog` appends each result to a CSV as it arrives and tells which items a previous,
-interrupted study already finished, so a study resumes where it stopped.
+:class:`ResultLog` (JSON lines, for :func:`map_ordered`) and :class:`CsvLog` (a table) append each result to disk
+as it arrives and tell which items a previous, interrupted study already finished, so a study resumes where it
+stopped.
 """
 from __future__ import annotations
 
 import csv
+import json
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
-__all__ = ["parallel_map", "map_ordered", "CsvLog"]
+__all__ = ["parallel_map", "map_ordered", "ResultLog", "CsvLog"]
 
 
 def parallel_map(fn: Callable, items: Iterable, workers: int = 2, scheduler: str | None = None,
@@ -88,14 +90,63 @@ class _Indexed:
 
 
 def map_ordered(fn: Callable, items: Iterable, workers: int = 2, scheduler: str | None = None,
-                progress: bool = True, label: str = "runs", weight: Callable | None = None, unit: str = "runs") -> list:
-    """``[fn(item) for item in items]`` computed by :func:`parallel_map` (results in the items' order)."""
+                progress: bool = True, label: str = "runs", weight: Callable | None = None, unit: str = "runs",
+                log: "ResultLog | None" = None, key: Callable = repr) -> list:
+    """``[fn(item) for item in items]`` computed by :func:`parallel_map` (results in the items' order).
+
+    With ``log``, every result is appended to it as it arrives, and an item whose ``key(item)`` the log already
+    holds is not run again: its logged result is returned (results must be JSON data).
+    """
     pairs = list(enumerate(items))
     results = [None] * len(pairs)
+    if log is not None:
+        done = log.load()
+        keys = [key(item) for _, item in pairs]
+        for i, k in enumerate(keys):
+            if k in done:
+                results[i] = done[k]
+        pairs = [(i, item) for i, item in pairs if keys[i] not in done]
     pair_weight = None if weight is None else (lambda pair: weight(pair[1]))
     for (i, _), result in parallel_map(_Indexed(fn), pairs, workers, scheduler, progress, label, pair_weight, unit):
         results[i] = result
+        if log is not None:
+            log.append(keys[i], result)
     return results
+
+
+class ResultLog:
+    """Append-only JSON-lines file of finished work items, ``{"key": ..., "result": ...}`` per line, each line
+    flushed as its item finishes: an interrupted study loses only the items that were running.
+
+    Parameters
+    ----------
+    path : path
+        The file (created on the first :meth:`append`).
+    """
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+
+    def load(self) -> dict:
+        """``{key: result}`` of the items written so far (a line cut off by an interruption is ignored)."""
+        if not self.path.is_file():
+            return {}
+        out = {}
+        for line in self.path.read_text().splitlines():
+            try:
+                entry = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if isinstance(entry, dict) and "key" in entry and "result" in entry:
+                out[entry["key"]] = entry["result"]
+        return out
+
+    def append(self, key: str, result) -> None:
+        """Write one item's result."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with self.path.open("a") as fh:
+            fh.write(json.dumps({"key": key, "result": result}) + "\n")
+            fh.flush()
 
 
 def _dask_map(fn, items, scheduler):

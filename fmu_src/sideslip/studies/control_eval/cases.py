@@ -40,6 +40,8 @@ SOURCES = (
     Source("LQR / truth", "LqrDycController"),
     *(Source(f"LQR / {e}", "LqrDycController", e) for e in PAPER_METHODS),
     Source("LQR / SideslipFusion", "LqrDycController", "SideslipFusion"),
+    Source("LQR / truth, road mu", "LqrDycController", None, (("friction_source", 1),)),
+    Source("LQR / SideslipFusion, mu_hat", "LqrDycController", "SideslipFusion", (("friction_source", 1),)),
     Source(f"StabilityController ({BEST_TWO[0]})", "StabilityController", BEST_TWO[0]),
     Source("StabilityController (SideslipFusion)", "StabilityController", "SideslipFusion"),
     Source("ESC / truth", "BaselineEsc"),

@@ -54,12 +54,12 @@ def _library(case: ControlCase, s, duration: float) -> dict:
         cls = {"LqrDycController": LqrDycController, "BaselineEsc": BaselineEsc,
                "StabilityController": StabilityController}[src.controller]
         ctl = cls(build(cls.config_class, _controller_values(case, s, sc)), vehicle=s.estimator_vehicle)
-        wiring = {"beta_hat": "plant.beta", "vx_hat": "plant.vx", "yaw_rate_hat": "plant.yaw_rate"}
+        wiring = {"beta_hat": "plant.beta", "vx_hat": "plant.vx", "yaw_rate_hat": "plant.yaw_rate", "mu_hat": "mu"}
         if src.estimator and src.controller != "StabilityController":
             est = make_estimator(Row(src.estimator, src.estimator, tuple(_hardened(src.estimator).items())), s)
             chain.append(("est", est, {"Mz_cmd": "controller.Mz_cmd"}))
             wiring = {"beta_hat": "est.beta_hat", "vx_hat": "est.vx_hat", "yaw_rate_hat": "est.yaw_rate_hat",
-                      "beta_valid": "est.valid"}
+                      "beta_valid": "est.valid", "mu_hat": "est.mu_hat", "beta_std": "est.beta_hat_std"}
         chain.append(("controller", ctl, wiring))
         links = {"Mz_dyc": "controller.Mz_cmd"}
     raw = run_loop(plant, driver, duration, 1e-3, sensors, chain=chain, links=links)
@@ -130,9 +130,11 @@ def run_control_case(item) -> dict:
 
 
 def control_evaluation(cases, engine: str = "library", fmu_dir=DEFAULT_OUT, workers: int = 2, scheduler=None,
-                       progress: bool = True) -> list[dict]:
+                       progress: bool = True, log=None) -> list[dict]:
     """Run cases (:func:`control_cases`) in parallel (:mod:`sideslip.studies.jobs`); per case, in order,
-    the :func:`run_control_case` metrics with ``scenario``, ``condition``, ``seed`` and ``source``."""
+    the :func:`run_control_case` metrics with ``scenario``, ``condition``, ``seed`` and ``source``.  With ``log``
+    (a :class:`~sideslip.studies.jobs.ResultLog`) each case's metrics go to disk as it finishes, and the cases the
+    log already holds (same case, same engine) are not run again."""
     if engine == "fmpy":
         from ...fmi.build import ensure_fmus
         from ...cosim.assembly import DRIVER, PLANT, SENSORS
@@ -141,7 +143,8 @@ def control_evaluation(cases, engine: str = "library", fmu_dir=DEFAULT_OUT, work
                   if c.source.estimator and c.source.controller != "StabilityController"}
         ensure_fmus(sorted(names | {DRIVER, PLANT, SENSORS}), fmu_dir)
     rows = map_ordered(run_control_case, [(c, engine, str(fmu_dir)) for c in cases], workers, scheduler, progress,
-                       "control", weight=lambda item: scenario_duration(item[0].scenario), unit="sim s")
+                       "control", weight=lambda item: scenario_duration(item[0].scenario), unit="sim s", log=log,
+                       key=lambda item: repr((item[0], item[1])))
     return [{"scenario": c.scenario, "condition": c.condition, "seed": c.seed, "source": c.source.label, **r}
             for c, r in zip(cases, rows)]
 

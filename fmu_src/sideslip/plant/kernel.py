@@ -1,0 +1,138 @@
+"""The plant's communication step compiled from C (``native/plant_kernel.c``), loaded with ctypes.
+
+The pure-Python plant (:mod:`sideslip.plant.dynamics`, :class:`~sideslip.plant.vehicle.VehiclePlant`) is the
+reference; the C file repeats its arithmetic operation for operation, so both give the same doubles on one
+platform (``tests/test_plant_kernel.py`` checks them equal to 1e-12, and bit-identical here).  A plant step in C
+costs about 2 us against about 30 us in Python.
+
+Plain C without the Python API, so one binary serves every Python version; ctypes, not a C extension, because
+the win64 FMUs are cross-compiled without a Windows Python to link against.  Where the binary comes from:
+
+* inside an FMU: ``native/<platform>/sideslip_plant_kernel.so`` / ``.dll`` next to this module, compiled by the
+  FMU build for linux64 and win64 (:func:`sideslip.fmi.build.compile_kernel`);
+* the library: the ``sideslip.plant._plant_kernel`` binary setuptools compiles at install (``setup.py``).
+
+The binary is loaded when this module is imported, which an FMU does at instantiation: some hosts delete the
+unpacked FMU afterwards.  Without a binary for this platform (no compiler at install, another operating system)
+the plant runs the Python reference and :data:`UNAVAILABLE` says why.
+"""
+from __future__ import annotations
+
+import ctypes
+import importlib.machinery
+import sys
+from pathlib import Path
+
+__all__ = ["PlantKernel", "available", "UNAVAILABLE", "LIBRARY_NAME", "PLATFORM", "N_STATE", "N_INPUTS",
+           "N_OUTPUTS"]
+
+LIBRARY_NAME = "sideslip_plant_kernel"
+"""File name (without extension) of the binary an FMU carries."""
+PLATFORM = {"linux": "linux64", "win32": "win64"}.get(sys.platform)
+"""This machine's FMI platform folder, where an FMU's kernel is."""
+KERNEL_VERSION = 1
+"""Interface version the binary must report (``sideslip_plant_kernel_version``)."""
+N_STATE, N_INPUTS, N_OUTPUTS = 15, 8, 24
+"""The kernel's state (the plant's 14 states and the motors' torque difference), inputs and outputs."""
+
+
+def _candidates():
+    here = Path(__file__).resolve().parent
+    if PLATFORM:
+        yield here / "native" / PLATFORM / (LIBRARY_NAME + (".dll" if PLATFORM == "win64" else ".so"))
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+        yield here / f"_plant_kernel{suffix}"
+
+
+def _load():
+    tried = []
+    for path in _candidates():
+        if not path.is_file():
+            continue
+        try:
+            lib = ctypes.CDLL(str(path))
+            version = lib.sideslip_plant_kernel_version()
+        except (OSError, AttributeError) as exc:
+            tried.append(f"{path.name}: {exc}")
+            continue
+        if version != KERNEL_VERSION:
+            tried.append(f"{path.name}: interface version {version}, expected {KERNEL_VERSION}")
+            continue
+        step = lib.sideslip_plant_step
+        vec = ctypes.POINTER(ctypes.c_double)
+        step.argtypes = [vec, vec, vec, ctypes.c_double, ctypes.c_double, ctypes.c_double, vec]
+        step.restype = ctypes.c_int
+        return lib, ""
+    why = "; ".join(tried) if tried else "no compiled plant kernel for this platform (built at install with a C compiler)"
+    return None, why
+
+
+_LIB, UNAVAILABLE = _load()
+"""The loaded binary (None without one) and, without one, why."""
+
+
+def available() -> bool:
+    """Whether the compiled plant step can run here."""
+    return _LIB is not None
+
+
+class PlantKernel:
+    """The compiled step of one plant: its constants and the buffers the C function reads and writes.
+
+    Parameters
+    ----------
+    constants : sequence of float
+        The plant's constants in the order of the C ``Constants`` struct
+        (:meth:`sideslip.plant.vehicle.VehiclePlant._kernel_constants`).
+
+    Raises
+    ------
+    RuntimeError
+        Without a binary (:func:`available`), or when the constants do not fit the binary's layout.
+    """
+
+    def __init__(self, constants):
+        if _LIB is None:
+            raise RuntimeError(UNAVAILABLE)
+        size = _LIB.sideslip_plant_constants_size()
+        if len(constants) != size:
+            raise RuntimeError(f"the plant kernel takes {size} constants, got {len(constants)}")
+        self._k = (ctypes.c_double * size)(*constants)
+        self._state = (ctypes.c_double * N_STATE)()
+        self._in = (ctypes.c_double * N_INPUTS)()
+        self._out = (ctypes.c_double * N_OUTPUTS)()
+        self._fn = _LIB.sideslip_plant_step
+
+    def step(self, x, dT, inputs, caf: float, car: float, h: float):
+        """One communication step.
+
+        Parameters
+        ----------
+        x : list of float
+            The plant's state (:class:`~sideslip.plant.dynamics.St` order).
+        dT : float
+            The motors' torque difference at the start of the step [N m].
+        inputs : tuple of float
+            ``delta_f, T_drive, T_brake, Mz_dyc, mu, bank_angle, F_wind_y, M_wind_z`` (SI).
+        caf, car : float
+            Cornering stiffness of a front and a rear tire on this friction [N/rad].
+        h : float
+            Communication step [s].
+
+        Returns
+        -------
+        n : int
+            RK4 sub-steps taken.
+        x : list of float
+            State at the end of the step.
+        dT : float
+            Torque difference at the end of the step [N m].
+        outputs : list of float
+            Outputs (:data:`sideslip.signals.PLANT_OUTPUTS` order).
+        """
+        state = self._state
+        state[:14] = x
+        state[14] = dT
+        self._in[:] = inputs
+        n = self._fn(self._k, state, self._in, caf, car, h, self._out)
+        return n, state[:14], state[14], self._out[:]
