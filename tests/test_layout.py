@@ -117,8 +117,8 @@ def test_importing_the_library_core_pulls_in_neither_pythonfmu_nor_fmpy():
 def test_the_top_level_is_the_projects_layout():
     tracked = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.split()
     top = {path.split("/")[0] for path in tracked}
-    assert top == {"pyproject.toml", "fmu_src", "build_fmu.py", "plant_fmus", "examples", "tests", "README.md",
-                   "docs", "mkdocs.yml", ".ci", ".gitignore"}
+    assert top == {"pyproject.toml", "setup.py", "fmu_src", "build_fmu.py", "plant_fmus", "examples", "tests",
+                   "README.md", "docs", "mkdocs.yml", ".ci", ".gitignore"}
 
 
 def test_no_estimator_function_is_longer_than_a_reader_can_hold():

@@ -30,7 +30,7 @@ this module turns it into the command the motors get:
   estimator's friction estimate (SideslipFusion's), within ``[mu_floor, mu]`` and rounded to
   :data:`FRICTION_STEPS`; each grid value's design is made once, when first used.  ``mu_hat`` not above
   0 (left unconnected) is no estimate: the parameter ``mu`` holds, as it does with ``friction_source = 0``
-  (the default), so a controller without a friction estimate behaves as before.
+  (the default), so a controller without a friction estimate designs for ``mu`` alone.
 
 * **trust in the sideslip estimate** (``beta_std_ref > 0``): the sideslip feedback is weighted also by
   ``s^2 / (s^2 + beta_std^2)`` with ``s = beta_std_ref``, the input ``beta_std`` being the estimator's

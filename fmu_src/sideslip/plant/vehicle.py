@@ -56,7 +56,7 @@ class PlantConfig(VehicleConfig):
     tire_model: int = param(0, "Dimensionless", "Tire model: 0 Dugoff (the plant of Pi 2011, the papers' tables), "
                             "1 Pacejka Magic Formula 5.2 with combined slip", choices=(0, 1))
     compiled: int = param(1, "Dimensionless", "Step computation: 1 compiled C where the FMU carries it for this "
-                          "platform (the same doubles, an eighth of the instructions), 0 the pure-Python reference",
+                          "platform (the same doubles, faster), 0 the pure-Python reference",
                           choices=(0, 1))
 
     def __post_init__(self):
