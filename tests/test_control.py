@@ -513,3 +513,47 @@ def test_the_sideslip_feedback_is_weighted_by_the_estimates_std():
     half = fb(0.01, beta_std_ref=0.01)                # weight 1/2
     assert np.max(np.abs(full - none)) > 50.0
     assert np.allclose(half, 0.5 * (full + none), rtol=0, atol=1e-6 * np.max(np.abs(full)))
+
+
+@pytest.mark.parametrize("tau_gamma", [0.1, 0.0])
+def test_reference_run_over_arrays_equals_its_steps_bit_for_bit(tau_gamma):
+    from sideslip.control.reference import ReferenceModel
+    model = BicycleModel.from_vehicle(load_vehicle("pi2011_suv"), 0.8, nominal=True)
+    rng = np.random.default_rng(1)
+    k = np.arange(5000)
+    delta = 0.2 * np.sin(k * 0.003) + 0.01 * rng.standard_normal(k.size)
+    vx = np.maximum(5.0, 25 + 3 * np.sin(k * 0.0007) + rng.standard_normal(k.size))
+    ref = ReferenceModel(model, 0.15, tau_gamma, 1e-3, 0.8)
+    beta, gamma = ref.run(delta, vx)
+    ref.reset()
+    steps = np.array([ref.step(d, v) for d, v in zip(delta.tolist(), vx.tolist())])
+    assert np.array_equal(beta, steps[:, 0]) and np.array_equal(gamma, steps[:, 1])
+
+
+def test_weights_follow_the_design_friction_and_without_exponents_nothing_changes():
+    base = {"vehicle": "pi2011_suv", "mu": 0.4, "q_gamma": 3e8, "q_beta": 1e10}
+    scheduled = LqrDycController(build(LqrDycConfig, {**base, "q_gamma_mu_exponent": 2.0, "q_beta_mu_exponent": -1.0,
+                                                      "mu_ref": 0.8}))
+    plain = LqrDycController(build(LqrDycConfig, {**base, "q_gamma": 3e8 * 0.5 ** 2, "q_beta": 1e10 * 0.5 ** -1}))
+    for v in (8.0, 20.0, 35.0):
+        assert scheduled.gains(v)[:] == pytest.approx(plain.gains(v)[:], rel=1e-12)
+    same = LqrDycController(build(LqrDycConfig, {**base, "mu_ref": 0.5}))       # exponents 0: mu_ref is inert
+    default = LqrDycController(build(LqrDycConfig, base))
+    assert same.gains(20.0)[:] == default.gains(20.0)[:]
+    # the friction schedule's designs scale the weights by the followed friction too
+    follow = LqrDycController(build(LqrDycConfig, {**base, "mu": 1.0, "friction_source": 1,
+                                                   "q_gamma_mu_exponent": 2.0}))
+    follow._follow_friction(0.5)
+    at_half = LqrDycController(build(LqrDycConfig, {**base, "mu": 0.5, "q_gamma": 3e8 * 0.25}))
+    assert follow.gains(20.0)[:] == pytest.approx(at_half.gains(20.0)[:], rel=1e-12)
+
+
+def _blas_threads(_):
+    import os
+    return os.environ.get("OPENBLAS_NUM_THREADS")
+
+
+def test_pool_workers_run_one_blas_thread_each(monkeypatch):
+    from sideslip.studies.jobs import map_ordered
+    monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    assert map_ordered(_blas_threads, [0, 1], workers=2, progress=False) == ["1", "1"]

@@ -46,39 +46,23 @@ def test_library_only():
 
 
 # ------------------------------------------------------------------------------ tuning studies
-_TINY_GRID = {"q_beta": [1e10], "q_gamma": [1e8, 1e9], "q_N": [1.0]}
+_TINY = {"training": (("fmvss126_suv_mu05_a5.0", {"maneuver_t_start": 0.5, "duration": 1.5}),),
+         "training_seeds": (100,), "development": (("bench_dev_jturn_suv_ice", {"duration": 1.5}),),
+         "development_seeds": (200,), "dev_points": 1, "progress": False}
 
 
-def _tiny_maneuvers():
-    from sideslip.studies.control_eval import TUNING_MANEUVERS
-    return TUNING_MANEUVERS[:1]
-
-
-def test_tune_lqr_runs_on_a_process_pool_writes_csv_plot_and_resumes(tmp_path, fmu_dir):
-    tune = load("tune_lqr")
-    csv = tmp_path / "sweep.csv"
-    rows, front, chosen = tune.run(show_plot=False, grid=_TINY_GRID, csv=csv, workers=2,
-                                   maneuvers=_tiny_maneuvers(), duration=2.0, fmu_dir=fmu_dir, progress=False)
-    assert len(rows) == 2 and csv.with_suffix(".png").is_file()
-    assert chosen in [rows[i] for i in front]
-    assert all(r["effort_Nms"] > 0 and r["sim_seconds"] == 2.0 for r in rows)
-    # interrupted study: drop one row, run again -> only the missing point runs, nothing is repeated
-    lines = csv.read_text().splitlines()
-    csv.write_text("\n".join(lines[:2]) + "\n")
-    rows2, _, _ = tune.run(show_plot=False, grid=_TINY_GRID, csv=csv, workers=1, maneuvers=_tiny_maneuvers(),
-                           duration=2.0, fmu_dir=fmu_dir, progress=False)
-    assert len(rows2) == 2 and len(csv.read_text().splitlines()) == 3
-    assert {(r["q_gamma"], r["effort_Nms"]) for r in rows2} == {(r["q_gamma"], r["effort_Nms"]) for r in rows}
+def test_tune_lqr_runs_on_a_process_pool_and_writes_the_chosen_point(tmp_path, fmu_dir):
+    s = load("tune_lqr").run(tmp_path / "study", trials=2, workers=2, fmu_dir=fmu_dir, **_TINY)
+    assert s["trials"] == 2 and s["workers"] == 2 and s["sim_seconds"] == 3.0
+    assert {Path(f).name for f in s["files"]} == {"chosen.json", "chosen.ssv", "trials.csv", "pareto.png"}
 
 
 def test_tune_lqr_runs_on_a_local_dask_cluster(tmp_path, fmu_dir):
     distributed = pytest.importorskip("distributed")
-    tune = load("tune_lqr")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
             distributed.Client(cl) as client:
-        rows, _, _ = tune.run(show_plot=False, grid=_TINY_GRID, csv=tmp_path / "dask.csv", scheduler=client,
-                              maneuvers=_tiny_maneuvers(), duration=2.0, fmu_dir=fmu_dir, progress=False)
-    assert len(rows) == 2 and all(r["effort_Nms"] > 0 for r in rows)
+        s = load("tune_lqr").run(tmp_path / "study", trials=2, scheduler=client, fmu_dir=fmu_dir, **_TINY)
+    assert s["trials"] == 2 and s["sim_seconds"] == 3.0 and s["workers"].startswith("dask")
 
 
 def test_tune_estimator_improves_the_training_objective(fmu_dir):

@@ -25,7 +25,7 @@ _CORE = {"numpy", "scipy", "control", "vehiclemodels", "tqdm", "pyarrow", "asamm
 THIRD_PARTY = {"core": _CORE,
                "fmi": _CORE | {"pythonfmu", "fmpy"},
                "cosim": _CORE | {"pythonfmu", "fmpy", "libcosimpy", "OMSimulator", "pandas"},
-               "studies": _CORE | {"fmpy", "matplotlib", "distributed"},
+               "studies": _CORE | {"fmpy", "matplotlib", "distributed", "optuna"},
                "cli": {"numpy"}}
 """Third-party packages each layer may import (the core never imports pythonfmu or fmpy; tqdm for progress bars,
 pyarrow and asammdf for the logs' formats, each imported where it is used)."""

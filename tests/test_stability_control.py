@@ -81,3 +81,20 @@ def test_drivable_lqr_is_quiet_bumpless_and_does_not_fight_the_launch(library_ru
         assert library_runs["bench_straight_sonata_long", row]["rms_Mz_cmd"] < 50.0, row
     assert library_runs["bench_straight_sonata_long", "LQR published / truth"]["rms_Mz_cmd"] > 300.0
     assert np.isfinite([r["rms_Mz_cmd"] for r in library_runs.values()]).all()
+
+
+def test_the_evaluation_runs_the_third_party_plant_and_labels_its_rows():
+    from sideslip.studies.control_eval import OFF_PLANT, control_cases
+    cases = control_cases(factors=(6.5,), directions=("",), seeds=1)
+    off = [c for c in cases if c.plant == OFF_PLANT]
+    assert {c.source.label for c in off} == {"none", "LQR / truth", "LQR / SideslipFusion",
+                                             "LQR / SideslipFusion, mu_hat", "ESC / truth"}
+    assert {c.scenario for c in off} == {f"{FMVSS_FAMILY}_a6.5", "park2018_case5"}
+    assert not any(c.plant == OFF_PLANT for c in control_cases(seeds=1, off_plant=False))
+    chosen = [c for c in off if c.scenario.startswith("fmvss") and c.source.label in ("none", "LQR / truth")]
+    rows = control_evaluation(chosen, workers=1, progress=False)
+    by = {r["source"]: r for r in rows}
+    assert all(r["condition"] == f"sensors+mismatch@{OFF_PLANT}" for r in rows)
+    # the van on the SUV's 6.5A sine with dwell: uncontrolled it fails, the LQR on its identified file holds it
+    assert not by["none"]["pass"] and by["LQR / truth"]["yaw_stable"]
+    assert by["LQR / truth"]["max_abs_beta_deg"] < by["none"]["max_abs_beta_deg"]

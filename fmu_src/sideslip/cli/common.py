@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["kv", "run_args", "case_args", "positive", "count", "window", "EXAMPLES_FORMAT"]
+__all__ = ["kv", "run_args", "case_args", "positive", "count", "window", "file_params", "params_file_arg", "EXAMPLES_FORMAT"]
 
 EXAMPLES_FORMAT = argparse.RawDescriptionHelpFormatter
 """The help format of a command with examples in its epilog (kept as written)."""
@@ -58,11 +58,36 @@ def run_args(sp, scenario_required: bool) -> None:
     sp.add_argument("--set", action="append", metavar="KEY=VALUE",
                     help="scenario override: duration, road_mu, maneuver_<key>, sensor_<key>, ...")
     sp.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE", help="FMU parameter override")
+    params_file_arg(sp)
     sp.add_argument("--master", choices=("fmpy", "libcosim", "omsimulator"), default="fmpy",
                     help="co-simulation master (libcosim: pip install libcosimpy; omsimulator: set "
                          "SIDESLIP_OMSIMULATOR to its install folder; both Jacobi)")
     sp.add_argument("--scheme", choices=("gauss-seidel", "jacobi"), default="gauss-seidel",
                     help="coupling scheme of the fmpy master")
+
+
+def params_file_arg(sp) -> None:
+    """The ``--params FILE`` option (a parameter file of :mod:`sideslip.fmi.param_file`)."""
+    sp.add_argument("--params", metavar="FILE", help="parameter file of one FMU (the chosen.json or chosen.ssv of "
+                    "sideslip tune): its values for every instance of that FMU, under any --param")
+
+
+def file_params(path, components) -> dict:
+    """``{"instance.name": value}`` of the parameter file ``path`` for every component running its FMU (an ``.ssv``
+    file is taken for the run's controller)."""
+    from ..fmi.catalogue import fmu_spec
+    from ..fmi.param_file import read_param_file
+
+    fmu = None
+    if str(path).lower().endswith(".ssv"):
+        fmu = next((c.fmu for c in components if fmu_spec(c.fmu).role == "controller"), None)
+        if fmu is None:
+            raise ValueError(f"--params {path}: an .ssv file is applied to the run's controller, and it has none")
+    fmu, values = read_param_file(path, fmu)
+    names = [c.name for c in components if c.fmu == fmu]
+    if not names:
+        raise ValueError(f"--params {path} holds parameters of {fmu}, which this run does not have")
+    return {f"{inst}.{k}": v for inst in names for k, v in values.items()}
 
 
 def window(text: str) -> tuple[float, float]:

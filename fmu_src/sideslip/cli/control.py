@@ -5,9 +5,9 @@ import json
 import sys
 from pathlib import Path
 
-from .common import EXAMPLES_FORMAT, case_args, count, kv
+from .common import EXAMPLES_FORMAT, case_args, count, kv, params_file_arg
 
-__all__ = ["register"]
+__all__ = ["register", "control_case_set"]
 
 
 def _cmd_control(args) -> int:
@@ -18,20 +18,7 @@ def _cmd_control(args) -> int:
         path = ce.plot_example(args.out, args.fmu_dir)
         print(f"wrote {path}")
         return 0
-    sources = ce.SOURCES
-    if args.source:
-        known = {s.label: s for s in ce.SOURCES}
-        missing = [s for s in args.source if s not in known]
-        if missing:
-            raise SystemExit(f"--source {missing[0]!r}: rows are {', '.join(known)}")
-        sources = tuple(known[s] for s in args.source)
-    factors = tuple(float(f) for f in args.factors.split(",")) if args.factors else (
-        ce.QUICK_FACTORS if args.quick else ce.FMVSS_FACTORS)
-    cases = ce.control_cases(sources, args.condition or ce.CONDITIONS, args.seeds or (1 if args.quick else 2),
-                             factors, scenarios=args.scenario or ce.SCENARIOS)
-    params = tuple(kv(args.param, "--param").items())
-    if params:
-        cases = [ce.with_controller_params(c, params) for c in cases]
+    cases = control_case_set(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     journal = out / "rows.jsonl"
@@ -52,19 +39,30 @@ def _cmd_control(args) -> int:
 
 
 def register(sub) -> None:
+    _register_control(sub)
+    register_tune(sub)
+
+
+def _register_control(sub) -> None:
     ctl = sub.add_parser("control", help="closed-loop evaluation of the yaw-moment controllers under realistic "
-                         "sensors and model mismatch: FMVSS 126, brake in a turn on snow, acceleration in a turn, "
+                         "sensors and model mismatch (the held-out test set of sideslip tune): FMVSS 126, brake in a "
+                         "turn on snow, acceleration in a turn, "
                          "launch into a turn, straight drive, changing friction", formatter_class=EXAMPLES_FORMAT,
                          epilog="examples:\n  sideslip control --quick\n  sideslip control --source 'LQR / truth' "
                          "--source 'ESC / truth' --factors 5,6.5\n  sideslip control --param q_gamma=3e6 --workers 2\n"
-                         "  sideslip control --resume   # go on where a stopped run stopped")
+                         "  sideslip control --resume   # go on where a stopped run stopped\n"
+                         "  sideslip control --params out/tune/chosen.json   # a tuning study's choice, on the LQR rows")
     case_args(ctl, "1 seed, FMVSS 126 at 3.5A, 5A and 6.5A", "default 2, quick 1",
               "sensors or sensors+mismatch (default both)", "only this scenario besides FMVSS 126")
     ctl.add_argument("--source", action="append", help="only this row, e.g. 'LQR / truth' (repeatable)")
     ctl.add_argument("--factors", help="FMVSS 126 amplitudes in multiples of A, comma-separated "
                      "(default 1.5 to 6.5 in 0.5 steps)")
+    ctl.add_argument("--plant", action="append", help="own (the project's plant) or commonroad3 (CommonRoad's VW "
+                     "Vanagon: FMVSS 126 and the brake in a turn on snow, five rows; quick: 5A and 6.5A); "
+                     "repeatable, default both")
     ctl.add_argument("--param", action="append", metavar="NAME=VALUE",
                      help="controller parameter, for every row whose controller has it")
+    params_file_arg(ctl)
     ctl.add_argument("--engine", choices=("library", "fmpy"), default="library",
                      help="run the models in-process (default) or the FMUs through fmpy")
     ctl.add_argument("--plot", action="store_true", help="only write the command-split figure of the docs")
@@ -76,3 +74,100 @@ def register(sub) -> None:
     ctl.add_argument("--scheduler", help="address of a Dask scheduler instead of local processes")
     ctl.add_argument("--json", action="store_true", help="print the summary as JSON instead of the tables")
     ctl.set_defaults(func=_cmd_control)
+
+
+def control_case_set(args) -> list:
+    """The cases the options of ``control`` choose (rows, amplitudes, plants, seeds, parameters)."""
+    from ..scenarios import FMVSS_FACTORS
+    from ..studies import control_eval as ce
+
+    sources = ce.SOURCES
+    if args.source:
+        known = {s.label: s for s in ce.SOURCES}
+        missing = [s for s in args.source if s not in known]
+        if missing:
+            raise SystemExit(f"--source {missing[0]!r}: rows are {', '.join(known)}")
+        sources = tuple(known[s] for s in args.source)
+    factors = tuple(float(f) for f in args.factors.split(",")) if args.factors else (
+        ce.QUICK_FACTORS if args.quick else FMVSS_FACTORS)
+    off = args.plant is None or ce.OFF_PLANT in args.plant
+    if args.plant and set(args.plant) - {"own", ce.OFF_PLANT}:
+        raise ValueError(f"--plant {sorted(set(args.plant) - {'own', ce.OFF_PLANT})[0]!r}: plants are own and "
+                         f"{ce.OFF_PLANT}")
+    cases = ce.control_cases(sources, args.condition or ce.CONDITIONS, args.seeds or (1 if args.quick else 2),
+                             factors, scenarios=args.scenario or ce.SCENARIOS, off_plant=off,
+                             off_plant_factors=ce.QUICK_OFF_PLANT_FACTORS if args.quick and not args.factors else None)
+    if args.plant and "own" not in args.plant:
+        cases = [c for c in cases if c.plant != "own"]
+    if args.params:
+        from ..fmi.param_file import read_param_file
+
+        fmu, values = read_param_file(args.params, "LqrDycController" if args.params.lower().endswith(".ssv")
+                                      else None)
+        cases = [ce.with_controller_params(c, tuple(values.items())) if c.source.controller == fmu else c
+                 for c in cases]
+    params = tuple(kv(args.param, "--param").items())
+    if params:
+        cases = [ce.with_controller_params(c, params) for c in cases]
+    return cases
+
+
+def _cmd_tune(args) -> int:
+    from ..studies.control_eval.study import EFFORT_CAP, run_study
+    from ..studies.control_eval.tuning import OBJECTIVES
+
+    if args.source not in (None, "truth"):
+        from ..estimators import ESTIMATORS
+        from ..params import one_of
+        if args.source not in ESTIMATORS:
+            raise ValueError(one_of(args.source, ESTIMATORS, "estimator"))
+    out = Path(args.out)
+    s = run_study(out, args.trials, args.workers, args.scheduler, None if args.source in (None, "truth") else
+                  args.source, args.sampler, args.seed, args.study, args.dev_points, fmu_dir=args.fmu_dir)
+    names = {"rms_yaw_rate_error_deg_s": "RMS yaw-rate error [deg/s]", "effort_kNms": "effort [kN m s]",
+             "max_abs_beta_deg": "max |beta| [deg]"}
+    chosen, shipped = s["chosen"], s["shipped"]
+    print(f"study {s['study']} ({s['sampler']}, LQR / {s['source']}): {s['trials']} points, Pareto front "
+          f"{len(s['pareto'])}; chosen trial {chosen['trial']} on the development set")
+    print(f"  {'':28s} {'training':>9s} {'dev':>9s} {'shipped dev':>12s} {'ESC dev':>9s}")
+    for k in OBJECTIVES:
+        ref = shipped["development"][k] if shipped["development"] else float("nan")
+        print(f"  {names[k]:28s} {chosen['training'][k]:9.3f} {chosen['development'][k]:9.3f} {ref:12.3f} "
+              f"{s['esc']['development'][k]:9.3f}")
+    if not chosen["within_effort_cap"]:
+        print(f"  no point of the front kept within {EFFORT_CAP:g}x the ESC's effort on the development set")
+    print("  " + ", ".join(f"{k} {v:.4g}" for k, v in chosen["parameters"].items()))
+    if s["sim_seconds"]:
+        total = s['sim_seconds'] + s['development_sim_seconds']
+        print(f"{total:.0f} simulated s in {s['wall_seconds']:.0f} s: {s['sim_per_wall']:.1f} simulated s "
+              f"per wall s ({s['workers']} workers)", file=sys.stderr)
+    print(f"wrote {out}/chosen.json, chosen.ssv, trials.csv, pareto.png, summary.json; held out: "
+          f"sideslip control --params {out}/chosen.json", file=sys.stderr)
+    return 0
+
+
+def register_tune(sub) -> None:
+    from ..studies.control_eval.study import SAMPLERS, STUDY_NAME
+
+    tune = sub.add_parser("tune", help="tune the LQR (weights, speed and friction schedule, command shaping) with "
+                          "Optuna on a training set, choose on a development set, write a parameter file",
+                          formatter_class=EXAMPLES_FORMAT, epilog="examples:\n  sideslip tune --trials 80\n"
+                          "  sideslip tune --trials 120   # the same study goes on to 120 points\n"
+                          "  sideslip tune --source SideslipFusion --out out/tune_fusion\n"
+                          "  sideslip tune --scheduler local --workers 2   # a local Dask cluster\n"
+                          "  sideslip control --params out/tune/chosen.json   # the held-out evaluation")
+    tune.add_argument("--trials", type=count, default=60, help="points the study should hold when done, those of "
+                      "earlier runs and of other processes on the same --out included (default %(default)s)")
+    tune.add_argument("--source", help="estimator feeding the LQR (hardened) or 'truth' (default)")
+    tune.add_argument("--sampler", choices=SAMPLERS, default="tpe", help="Optuna sampler: multi-objective TPE "
+                      "(default) or NSGA-II")
+    tune.add_argument("--seed", type=int, default=0, help="the sampler's seed (default %(default)s)")
+    tune.add_argument("--study", default=STUDY_NAME, help="study name in the storage (default %(default)s)")
+    tune.add_argument("--dev-points", type=count, default=10, help="Pareto-front points run on the development set "
+                      "(default %(default)s)")
+    tune.add_argument("--out", default="out/tune", help="the study's folder: its Optuna journal (shared by every "
+                      "process tuning into it; a stopped study goes on), runs.jsonl and the files (default %(default)s)")
+    tune.add_argument("--workers", type=count, default=2, help="parallel processes (default %(default)s)")
+    tune.add_argument("--scheduler", help="address of a Dask scheduler, or 'local' for a Dask cluster of --workers "
+                      "processes here")
+    tune.set_defaults(func=_cmd_tune)

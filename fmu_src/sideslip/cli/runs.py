@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .common import EXAMPLES_FORMAT, kv, run_args
+from .common import EXAMPLES_FORMAT, file_params, kv, params_file_arg, run_args
 
 __all__ = ["register", "DEMO_SCENARIO"]
 
@@ -50,7 +50,10 @@ def _run(args, estimators, out_dir) -> int:
     formats = tuple(dict.fromkeys(args.format or ["csv"]))
     # every name and value checked before an FMU is built or loaded
     scenario = get_scenario(args.scenario, **overrides)
-    scenario_components(scenario, estimators, controller, params, getattr(args, "control_source", None))
+    comps, _ = scenario_components(scenario, estimators, controller, params, getattr(args, "control_source", None))
+    if args.params:
+        params = {**file_params(args.params, comps), **params}
+        scenario_components(scenario, estimators, controller, params, getattr(args, "control_source", None))
     duration = args.duration or scenario.duration
     if args.window and args.window[0] >= duration:
         raise ValueError(f"--window starts at {args.window[0]:g} s, after the run's end at {duration:g} s")
@@ -107,8 +110,16 @@ def _cmd_demo(args) -> int:
 def _cmd_export_ssp(args) -> int:
     from ..cosim.ssp import export_ssp
 
+    from ..cosim.assembly import scenario_components
+    from ..scenarios import get_scenario
+
     controller = None if args.controller in (None, "none") else args.controller
-    out = export_ssp(args.out, args.scenario, args.estimator or (), controller, params=kv(args.param, "--param"),
+    params = kv(args.param, "--param")
+    if args.params:
+        comps, _ = scenario_components(get_scenario(args.scenario, **kv(args.set, "--set")), args.estimator or (),
+                                       controller, params, args.control_source)
+        params = {**file_params(args.params, comps), **params}
+    out = export_ssp(args.out, args.scenario, args.estimator or (), controller, params=params,
                      control_source=args.control_source, overrides=kv(args.set, "--set"),
                      duration=args.duration, step=args.step, fmu_dir=args.fmu_dir)
     print(f"wrote {out}")
@@ -144,4 +155,5 @@ def register(sub) -> None:
     ssp.add_argument("--step", type=float, default=1e-3, help="fixed communication step [s] (default 1e-3)")
     ssp.add_argument("--set", action="append", metavar="KEY=VALUE", help="scenario override")
     ssp.add_argument("--param", action="append", metavar="INSTANCE.NAME=VALUE", help="FMU parameter override")
+    params_file_arg(ssp)
     ssp.set_defaults(func=_cmd_export_ssp)

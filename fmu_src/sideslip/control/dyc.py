@@ -8,6 +8,11 @@
   :mod:`sideslip.control.lqr`; the yaw rate ``gamma`` is the gyro's (``yaw_rate_m``) or, with
   ``yaw_rate_source = 1``, the estimator's (``yaw_rate_hat``, offset-corrected: a gyro offset ``b``
   is otherwise a standing moment ``g_gamma b``, 90 N m on the SUV at 18 m/s for 0.6 deg/s);
+* the weights scheduled on the friction the design is made for (an addition to the paper, off by default):
+  ``q_beta (mu / mu_ref)^p_beta`` and ``q_gamma (mu / mu_ref)^p_gamma`` (``q_beta_mu_exponent``,
+  ``q_gamma_mu_exponent``), ``mu`` being the parameter ``mu`` or, with ``friction_source = 1``, the estimate
+  ``mu_hat``: one tuning holds the yaw rate hard on a dry road and softly on snow, where a hard hold brakes the
+  rear axle's grip away (docs, "Tuning studies");
 * saturation at what the in-wheel motors can give (:mod:`sideslip.control.base`).
 
 Two profiles (parameter ``control_profile``):
@@ -59,6 +64,14 @@ class LqrDycConfig(YawMomentConfig):
     q_gamma: float = param(3.0e8, "AngularVelocityWeight", "Weight of the yaw-rate error in eq 26", gt=0,
                            le=1e16)
     q_N: float = param(1.0, "TorqueWeight", "Weight of the yaw moment in eq 26", gt=0, le=1e16)
+    q_beta_mu_exponent: float = param(0.0, "Dimensionless", "Friction schedule of the sideslip weight: q_beta "
+                                      "(mu / mu_ref)^p on the design's friction mu (0: the same weight on every road)",
+                                      ge=-4, le=4)
+    q_gamma_mu_exponent: float = param(0.0, "Dimensionless", "Friction schedule of the yaw-rate weight: q_gamma "
+                                       "(mu / mu_ref)^p on the design's friction mu (0: the same weight on every "
+                                       "road)", ge=-4, le=4)
+    mu_ref: float = param(1.0, "FrictionCoefficient", "Friction at which the weights are q_beta and q_gamma",
+                          ge=0.05, le=1.5)
     feedforward: int = param(2, "Dimensionless", "Feed-forward of eq 24: 0 off, 1 on, 2 as the profile says "
                              "(published: on; drivable: off)", choices=(0, 1, 2))
     tau_ff: float = param(0.02, "Time", "Low-pass that makes the feed-forward of eq 24 proper (profile 0)", gt=0, le=1)
@@ -83,7 +96,7 @@ class LqrDycController(YawMomentController):
         cfg = config or LqrDycConfig()
         super().__init__(cfg, vehicle)
         self.shaped = cfg.control_profile == DRIVABLE
-        self.gains = gain_schedule(self.model, cfg.q_beta, cfg.q_gamma, cfg.q_N, cfg.v_min, cfg.v_max)
+        self.gains = self._gains(self.model, cfg.mu)
         self.use_ff = cfg.feedforward == 1 or (cfg.feedforward == 2 and not self.shaped)
         self.ff = None
         if self.use_ff:                 # designed only when used: python-control's import takes about 2 s
@@ -95,8 +108,16 @@ class LqrDycController(YawMomentController):
         """The bicycle model on friction ``mu`` and its LQR gain schedule (the feed-forward stays at ``mu``)."""
         design = super()._design(mu)
         cfg = self.config
-        design["gains"] = gain_schedule(design["model"], cfg.q_beta, cfg.q_gamma, cfg.q_N, cfg.v_min, cfg.v_max)
+        design["gains"] = self._gains(design["model"], mu)
         return design
+
+    def _gains(self, model, mu: float):
+        """The LQR gain schedule of the bicycle model ``model`` on friction ``mu``, the weights scheduled on it."""
+        cfg = self.config
+        scale = mu / cfg.mu_ref
+        q_beta = cfg.q_beta * scale ** cfg.q_beta_mu_exponent if cfg.q_beta_mu_exponent else cfg.q_beta
+        q_gamma = cfg.q_gamma * scale ** cfg.q_gamma_mu_exponent if cfg.q_gamma_mu_exponent else cfg.q_gamma
+        return gain_schedule(model, q_beta, q_gamma, cfg.q_N, cfg.v_min, cfg.v_max)
 
     def reset(self) -> None:
         """Zero command, references and filter state (see :meth:`YawMomentController.reset`)."""

@@ -13,6 +13,8 @@ FMU would otherwise spend at instantiation.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ..bicycle import BicycleModel
@@ -47,5 +49,12 @@ def lqr_gains(model: BicycleModel, vx: float, q_beta: float, q_gamma: float, q_N
 def gain_schedule(model: BicycleModel, q_beta: float, q_gamma: float, q_N: float, v_lo: float, v_hi: float,
                   n: int = 32) -> SpeedTable:
     """LQR gains on a speed grid (see :mod:`sideslip.control.schedule`)."""
-    grid = speed_grid(v_lo, v_hi, n)
-    return SpeedTable(grid, [lqr_gains(model, v, q_beta, q_gamma, q_N) for v in grid])
+    return SpeedTable(speed_grid(v_lo, v_hi, n), _gain_rows(model, q_beta, q_gamma, q_N, v_lo, v_hi, n))
+
+
+@lru_cache(maxsize=256)
+def _gain_rows(model: BicycleModel, q_beta: float, q_gamma: float, q_N: float, v_lo: float, v_hi: float,
+               n: int) -> tuple:
+    """The gains of :func:`gain_schedule`, solved once per process for a design (32 Riccati equations take tens of
+    milliseconds; a study's controllers and a friction schedule's designs repeat them)."""
+    return tuple(lqr_gains(model, v, q_beta, q_gamma, q_N) for v in speed_grid(v_lo, v_hi, n))

@@ -57,6 +57,20 @@ class ReferenceModel:
         delta = self.limited_steer(delta, vx)
         return k_beta * delta, k_gamma * delta
 
+    def run(self, delta, vx) -> tuple:
+        """The references of a whole run from rest (:meth:`reset`): :meth:`step` over the samples of the arrays
+        ``delta`` [rad] and ``vx`` [m/s], vectorised (the same operations, the same doubles); returns the arrays
+        ``(beta_ref, gamma_ref)``."""
+        import numpy as np
+        from scipy.signal import lfilter
+
+        delta, vx = np.asarray(delta, dtype=float), np.asarray(vx, dtype=float)
+        k_beta, k_gamma = self.model.steady_state_gains(vx)
+        lim = self.mu * GRAVITY / (vx * np.abs(k_gamma))
+        delta = np.clip(delta, -lim, lim)
+        lag = lambda a, x: lfilter([1.0 - a], [1.0, -a], x)              # noqa: E731 - eqs 21-22's lags
+        return lag(self._a_beta, k_beta * delta), lag(self._a_gamma, k_gamma * delta)
+
     def step(self, delta: float, vx: float) -> tuple[float, float]:
         """Advance the lags by one sample; returns ``(beta_ref, gamma_ref)``."""
         beta, gamma = self.targets(delta, vx)

@@ -8,6 +8,8 @@ runs of a scenario can therefore be compared sample for sample.
 """
 from __future__ import annotations
 
+from operator import itemgetter
+
 import numpy as np
 
 from ..signals import SIGNALS
@@ -52,37 +54,63 @@ def run_loop(plant: VehiclePlant, driver: Driver, duration: float, step: float =
     if len(set(names)) != len(names):  # pragma: no cover - the catalogue keeps them distinct
         raise RuntimeError("output names of the models overlap")
     n = int(round(duration / step))
-    latest: dict[str, float] = {}
-    for m in models:
-        latest.update(m.output_dict())
-    for key, m, _ in chain:
-        latest.update({f"{key}.{nm}": y for nm, y in zip(m.output_names, m.outputs())})
-    plant_keys = [f"plant.{nm}" for nm in plant.output_names] if chain else None   # truth for a chain
-    if plant_keys:
-        latest.update(zip(plant_keys, plant.outputs()))
-    start = {nm: s.start for nm, s in SIGNALS.items()}
-    base = [(m, [links.get(nm, nm) for nm in m.input_names]) for m in models]
-    steps = [(key, m, [wiring.get(nm, nm) for nm in m.input_names]) for key, m, wiring in chain]
+    # every signal has a slot in one flat list: the outputs of the driver, plant, sensors and chain first (in the
+    # order recorded), the plant's truth for a chain, then one constant slot per input nobody provides (its start)
     chain_names = [f"{key}.{nm}" for key, m, _ in chain for nm in m.output_names]
+    plant_keys = [f"plant.{nm}" for nm in plant.output_names] if chain else []     # truth for a chain
+    keys = names + chain_names + plant_keys
+    slots = {key: i for i, key in enumerate(keys)}
+    values = [*(y for m in models for y in m.outputs()), *(y for _, m, _ in chain for y in m.outputs()),
+              *(plant.outputs() if plant_keys else ())]
+    start = {nm: s.start for nm, s in SIGNALS.items()}
+
+    def reader(wanted, default):
+        """A function of the slots returning the values of ``wanted`` keys (``default(key)`` if nobody provides
+        one) as a tuple."""
+        idx = []
+        for key in wanted:
+            if key not in slots:
+                slots[key] = len(values)
+                values.append(default(key))
+            idx.append(slots[key])
+        get = itemgetter(*idx) if idx else (lambda _: ())
+        return get if len(idx) != 1 else (lambda v, g=get: (g(v),))
+
+    stages, at = [], 0
+    for m in models:
+        ins = reader([links.get(nm, nm) for nm in m.input_names], lambda key: start.get(key, 0.0))
+        end = at + len(m.output_names)
+        truth = (len(names) + len(chain_names), len(keys)) if m is plant and plant_keys else None
+        stages.append((m, ins, at, end, truth))
+        at = end
+    for key, m, wiring in chain:
+        ins = reader([wiring.get(nm, nm) for nm in m.input_names],
+                     lambda k2: start.get(k2.rpartition(".")[2], 0.0))
+        end = at + len(m.output_names)
+        stages.append((m, ins, at, end, None))
+        at = end
+    watchers = [(m, reader(list(m.input_names), lambda key: 0.0)) for m in observers.values()]
     obs_names = [f"{key}.{nm}" for key, m in observers.items() for nm in m.output_names]
-    rec = np.empty((n + 1, len(names) + len(chain_names) + len(obs_names)))
+    recorded = len(names) + len(chain_names)
+    rec = np.empty((n + 1, recorded + len(obs_names)))
 
-    def row():
-        return ([latest[nm] for nm in names] + [latest[nm] for nm in chain_names]
-                + [y for m in observers.values() for y in m.outputs()])
+    def record(k):
+        rec[k, :recorded] = values[:recorded]
+        if watchers:
+            rec[k, recorded:] = [y for m, _ in watchers for y in m.outputs()]
 
-    rec[0] = row()
+    record(0)
     failure = None
     for k in range(n):
         try:
-            _advance(step, latest, start, base, steps, observers, plant, plant_keys)
+            _advance(step, values, stages, watchers)
         except ValueError as exc:
             if not until_failure:
                 raise
             failure, n = str(exc), k
             rec = rec[:k + 1]
             break
-        rec[k + 1] = row()
+        record(k + 1)
     out = {nm: rec[:, i] for i, nm in enumerate(names + chain_names + obs_names)}
     out["time"] = np.arange(n + 1) * step
     if failure is not None:
@@ -90,15 +118,12 @@ def run_loop(plant: VehiclePlant, driver: Driver, duration: float, step: float =
     return out
 
 
-def _advance(step, latest, start, base, steps, observers, plant, plant_keys) -> None:
+def _advance(step, values, stages, watchers) -> None:
     """One communication step of every model, Gauss-Seidel (see :func:`run_loop`)."""
-    for m, keys in base:
-        m.step(step, *(latest.get(key, start.get(key, 0.0)) for key in keys))
-        latest.update(zip(m.output_names, m.outputs()))
-        if m is plant and plant_keys:
-            latest.update(zip(plant_keys, m.outputs()))
-    for key, m, keys in steps:
-        m.step(step, *(latest.get(k2, start.get(k2.rpartition(".")[2], 0.0)) for k2 in keys))
-        latest.update(zip((f"{key}.{nm}" for nm in m.output_names), m.outputs()))
-    for m in observers.values():
-        m.step(step, *(latest.get(nm, 0.0) for nm in m.input_names))
+    for m, ins, a, b, truth in stages:
+        m.step(step, *ins(values))
+        values[a:b] = m.outputs()
+        if truth is not None:
+            values[truth[0]:truth[1]] = values[a:b]
+    for m, ins in watchers:
+        m.step(step, *ins(values))

@@ -4,7 +4,8 @@ Paper tables, the control evaluation and the tuning studies all run through
 :func:`parallel_map`: a picklable function over a list of items on a local process pool or,
 given a scheduler address, on a Dask distributed cluster, yielding ``(item, result)`` in
 completion order with an optional progress bar on stderr; :func:`map_ordered` returns the
-results in the items' order.  Local workers are spawned, not forked: a forked child would
+results in the items' order.  A study that maps many times keeps one set of workers for all of them
+(:func:`worker_pool`).  Local workers are spawned, not forked: a forked child would
 inherit the parent's loaded FMUs and pythonfmu's interpreter state, which is not fork-safe.
 :class:`ResultLog` (JSON lines, for :func:`map_ordered`) and :class:`CsvLog` (a table) append each result to disk
 as it arrives and tell which items a previous, interrupted study already finished, so a study resumes where it
@@ -14,12 +15,14 @@ from __future__ import annotations
 
 import csv
 import json
-from concurrent.futures import ProcessPoolExecutor, as_completed
+import os
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
-__all__ = ["parallel_map", "map_ordered", "ResultLog", "CsvLog"]
+__all__ = ["parallel_map", "map_ordered", "worker_pool", "ResultLog", "CsvLog"]
 
 
 def parallel_map(fn: Callable, items: Iterable, workers: int = 2, scheduler: str | None = None,
@@ -36,7 +39,9 @@ def parallel_map(fn: Callable, items: Iterable, workers: int = 2, scheduler: str
     workers : int
         Local worker processes (ignored with ``scheduler``); 1 runs in this process.
     scheduler : str, optional
-        Address of a Dask distributed scheduler (``tcp://host:8786``), or a ``distributed.Client``.
+        Address of a Dask distributed scheduler (``tcp://host:8786``), ``"local"`` (a Dask cluster of ``workers``
+        processes on this machine, started for the call), a ``distributed.Client``, or the pool of
+        :func:`worker_pool` (kept running after the call).
     progress : bool
         Show a progress bar on stderr when it is a terminal (:func:`sideslip.progress.progress_bar`).
     weight : callable, optional
@@ -47,36 +52,71 @@ def parallel_map(fn: Callable, items: Iterable, workers: int = 2, scheduler: str
     items = list(items)
     weigh = weight or (lambda item: 1)
     bar = progress_bar(sum(weigh(i) for i in items), label, unit) if progress and items else None
-    if scheduler is not None:
-        try:
-            for item, result in _dask_map(fn, items, scheduler):
+    if isinstance(scheduler, Executor) or (scheduler is None and workers > 1 and len(items) > 1):
+        with _pool_for(scheduler, min(workers, len(items))) as pool:
+            futures = {pool.submit(fn, item): item for item in items}
+            try:
+                for fut in as_completed(futures):
+                    result = fut.result()
+                    if bar:
+                        bar.update(weigh(futures[fut]))
+                    yield futures[fut], result
+            finally:
                 if bar:
-                    bar.update(weigh(item))
-                yield item, result
-        finally:
-            if bar:
-                bar.close()
+                    bar.close()
         return
-    if workers <= 1 or len(items) == 1:
-        for item in items:
-            result = fn(item)
+    source = _dask_map(fn, items, scheduler, workers) if scheduler is not None else ((i, fn(i)) for i in items)
+    try:
+        for item, result in source:
             if bar:
                 bar.update(weigh(item))
             yield item, result
+    finally:
         if bar:
             bar.close()
+
+
+BLAS_THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+"""What sets a numerical library's own threads: one per worker (as Dask's workers have), unless set.  The workers
+are the parallelism; a BLAS pool per worker on top of them oversubscribes the cores (docs, "Tuning studies")."""
+
+
+def _local_pool(workers: int) -> ProcessPoolExecutor:
+    for name in BLAS_THREADS:           # the workers are spawned on demand and inherit this environment
+        os.environ.setdefault(name, "1")
+    return ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+
+
+@contextmanager
+def _pool_for(pool, workers: int):
+    """``pool`` itself (left running), or a fresh local pool of ``workers`` shut down at the end."""
+    if pool is not None:
+        yield pool
         return
-    with ProcessPoolExecutor(max_workers=min(workers, len(items)), mp_context=get_context("spawn")) as pool:
-        futures = {pool.submit(fn, item): item for item in items}
-        try:
-            for fut in as_completed(futures):
-                result = fut.result()
-                if bar:
-                    bar.update(weigh(futures[fut]))
-                yield futures[fut], result
-        finally:
-            if bar:
-                bar.close()
+    with _local_pool(workers) as fresh:
+        yield fresh
+
+
+@contextmanager
+def worker_pool(workers: int = 2, scheduler=None):
+    """Workers kept for many :func:`parallel_map` calls (a study's batches): pass what this yields as their
+    ``scheduler``.  ``scheduler`` None gives a local pool of ``workers`` spawned processes (None for one worker:
+    the calls run in this process), ``"local"`` a Dask cluster of ``workers`` processes on this machine, an
+    address or a ``distributed.Client`` a client of that cluster."""
+    if scheduler is None:
+        if workers <= 1:
+            yield None
+            return
+        with _local_pool(workers) as pool:
+            yield pool
+        return
+    from distributed import Client
+
+    if isinstance(scheduler, Client):
+        yield scheduler
+        return
+    with _dask_client(scheduler, workers) as client:
+        yield client
 
 
 class _Indexed:
@@ -149,18 +189,30 @@ class ResultLog:
             fh.flush()
 
 
-def _dask_map(fn, items, scheduler):
+@contextmanager
+def _dask_client(scheduler, workers: int):
+    """A client of the Dask cluster at the address ``scheduler``, or of a local one (``"local"``), closed at the
+    end."""
+    from distributed import Client, LocalCluster
+
+    if scheduler == "local":
+        with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+            with Client(cluster) as client:
+                yield client
+        return
+    with Client(scheduler) as client:
+        yield client
+
+
+def _dask_map(fn, items, scheduler, workers: int):
     from distributed import Client, as_completed as dask_completed
 
-    client = scheduler if isinstance(scheduler, Client) else Client(scheduler)
-    try:
+    with (_pool_for(scheduler, workers) if isinstance(scheduler, Client) else _dask_client(scheduler, workers)) \
+            as client:
         futures = client.map(fn, items, pure=False)
         index = {f.key: i for i, f in enumerate(futures)}
         for fut, result in dask_completed(futures, with_results=True):
             yield items[index[fut.key]], result
-    finally:
-        if client is not scheduler:
-            client.close()
 
 
 class CsvLog:

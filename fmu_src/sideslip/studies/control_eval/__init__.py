@@ -12,7 +12,11 @@ Scenarios (:data:`SCENARIOS`): FMVSS 126 sine with dwell on the SUV, 1.5A-6.5A b
 (:data:`FMVSS_FAMILY`); brake in a turn on packed snow (``park2018_case5``); acceleration in a turn
 (``park2018_case3``); a low-speed launch into a turn (``control_launch_turn_sonata``); a long straight
 drive (``bench_straight_sonata_long``, its first 40 s: 10 -> 30 m/s); a sine steer while the friction
-drops from 0.9 to 0.4 and returns (``bench_changing_mu_sonata``).
+drops from 0.9 to 0.4 and returns (``bench_changing_mu_sonata``).  On a plant the project did not write
+(:data:`OFF_PLANT`, CommonRoad's VW Vanagon, known by its identified vehicle file): the FMVSS 126 runs and the
+brake in a turn on snow for the rows of :data:`OFF_PLANT_SOURCES`, reported as the condition
+``sensors+mismatch@commonroad3``.  It is the held-out test set of the tuning study (``sideslip tune``,
+:mod:`~sideslip.studies.control_eval.study`), whose training and development maneuvers and seeds are others.
 
 * FMVSS 126 (49 CFR 571.126 S5.2, S7.7, S7.11): the yaw rate 1.00 s and 1.75 s after the
   completion of steer must be below 35 % and 20 % of the first yaw-rate peak after the steering
@@ -30,14 +34,16 @@ Two engines run the same cases: ``library`` (the models in one process, :func:`s
 the default, about 6 times faster) and ``fmpy`` (the FMUs, :func:`sideslip.studies.runs.run_scenario`),
 which agree (tests/test_stability_control.py).
 """
-from .cases import (BEST_TWO, CONDITIONS, DURATION, FMVSS_FAMILY, LAUNCH, QUICK_FACTORS, SCENARIOS, SOURCES,
-                    ControlCase, Source, control_cases, fmvss_names, scenario_mu, steer_times, with_controller_params)
+from .cases import (BEST_TWO, CONDITIONS, DURATION, FMVSS_FAMILY, LAUNCH, OFF_PLANT, OFF_PLANT_SCENARIOS,
+                    OFF_PLANT_SOURCES, QUICK_FACTORS, QUICK_OFF_PLANT_FACTORS, SCENARIOS, SOURCES, ControlCase, Source, control_cases,
+                    fmvss_names, scenario_mu, steer_times, with_controller_params)
 from .engines import control_evaluation, plot_example, run_control_case, simulate_control
 from .measures import control_metrics, fmvss126_metrics
 from .report import format_control_evaluation, summarise
-from .tuning import TUNING_MANEUVERS, evaluate_weights
+from .tuning import DEVELOPMENT_SET, SEARCH_SPACE, TRAINING_SET
 
-__all__ = ["CONDITIONS", "FMVSS_FAMILY", "SCENARIOS", "QUICK_FACTORS", "DURATION", "LAUNCH", "BEST_TWO", "Source",
+__all__ = ["CONDITIONS", "OFF_PLANT", "OFF_PLANT_SCENARIOS", "OFF_PLANT_SOURCES", "FMVSS_FAMILY", "SCENARIOS",
+           "QUICK_FACTORS", "QUICK_OFF_PLANT_FACTORS", "DURATION", "LAUNCH", "BEST_TWO", "Source",
            "SOURCES", "ControlCase", "control_cases", "fmvss_names", "with_controller_params", "plot_example",
            "steer_times", "scenario_mu", "fmvss126_metrics", "control_metrics", "simulate_control", "run_control_case",
-           "control_evaluation", "summarise", "format_control_evaluation", "TUNING_MANEUVERS", "evaluate_weights"]
+           "control_evaluation", "summarise", "format_control_evaluation", "TRAINING_SET", "DEVELOPMENT_SET", "SEARCH_SPACE"]

@@ -9,7 +9,8 @@ from ...fmi.catalogue import fmu_spec
 from ...params import declared_fields
 from ...plant.maneuvers import parse_maneuver
 from ...scenarios import FMVSS_FACTORS
-from ..accuracy import PAPER_METHODS
+from ..accuracy import OFF_PLANT_CONDITION, PAPER_METHODS
+from ..drives import OWN
 
 
 CONDITIONS = ("sensors", "sensors+mismatch")
@@ -60,11 +61,19 @@ class ControlCase:
     source: Source
     params: tuple = ()                     #: controller parameter overrides (tuning)
     overrides: tuple = ()                  #: scenario overrides
+    plant: str = OWN                       #: the plant (sideslip.studies.drives.PLANTS)
+
+    @property
+    def condition_label(self) -> str:
+        """The condition, with the plant when it is not the project's (``sensors+mismatch@commonroad3``)."""
+        return self.condition if self.plant == OWN else f"{self.condition}@{self.plant}"
 
 
 QUICK_FACTORS = (3.5, 5.0, 6.5)
 """FMVSS 126 amplitudes of ``--quick``: the first the uncontrolled SUV fails, the first with the
 displacement criterion, the largest."""
+QUICK_OFF_PLANT_FACTORS = (5.0, 6.5)
+"""FMVSS 126 amplitudes of ``--quick`` on :data:`OFF_PLANT`: those with the displacement criterion."""
 
 
 def with_controller_params(case: ControlCase, params) -> ControlCase:
@@ -80,11 +89,30 @@ def fmvss_names(factors=FMVSS_FACTORS, directions=("", "_right"), family: str = 
     return [f"{family}_a{f:.1f}{d}" for f in factors for d in directions]
 
 
+OFF_PLANT = "commonroad3"
+"""The third-party plant of the evaluation: CommonRoad's VW Vanagon, known to the controllers and estimators by its
+identified vehicle file (the estimator benchmark's test-set car; :mod:`sideslip.studies.drives`)."""
+OFF_PLANT_SCENARIOS = ("park2018_case5",)
+"""Besides FMVSS 126, what runs on :data:`OFF_PLANT`: the brake in a turn on snow."""
+OFF_PLANT_SOURCES = ("none", "LQR / truth", "LQR / SideslipFusion", "LQR / SideslipFusion, mu_hat", "ESC / truth")
+"""The rows run on :data:`OFF_PLANT` (its Python model costs ten times the project's compiled one per step)."""
+
+
 def control_cases(sources=SOURCES, conditions=CONDITIONS, seeds=2, factors=FMVSS_FACTORS, directions=("", "_right"),
-                  scenarios=SCENARIOS) -> list[ControlCase]:
-    """Every scenario x condition x seed x row."""
-    names = [*fmvss_names(factors, directions), *scenarios]
-    return [ControlCase(n, c, s, src) for n in names for c in conditions for s in range(seeds) for src in sources]
+                  scenarios=SCENARIOS, off_plant: bool = True, off_plant_factors=None) -> list[ControlCase]:
+    """Every scenario x condition x seed x row on the project's plant and, with ``off_plant``, the FMVSS 126 runs
+    (at ``off_plant_factors``, default ``factors``) and :data:`OFF_PLANT_SCENARIOS` x seed x the rows of ``sources``
+    among :data:`OFF_PLANT_SOURCES` on :data:`OFF_PLANT` (under
+    :data:`~sideslip.studies.accuracy.OFF_PLANT_CONDITION`)."""
+    fmvss = fmvss_names(factors, directions)
+    names = [*fmvss, *scenarios]
+    out = [ControlCase(n, c, s, src) for n in names for c in conditions for s in range(seeds) for src in sources]
+    if off_plant:
+        off = [*fmvss_names(factors if off_plant_factors is None else off_plant_factors, directions),
+               *(n for n in OFF_PLANT_SCENARIOS if n in scenarios)]
+        out += [ControlCase(n, OFF_PLANT_CONDITION, s, src, plant=OFF_PLANT) for n in off for s in range(seeds)
+                for src in sources if src.label in OFF_PLANT_SOURCES]
+    return out
 
 
 def steer_times(scenario) -> tuple[float, float, float]:

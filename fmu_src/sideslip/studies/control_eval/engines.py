@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 
 import numpy as np
@@ -10,11 +11,13 @@ from ...fmi.build import DEFAULT_OUT
 from ...fmi.catalogue import fmu_spec
 from ...params import build, declared_fields, format_assignments, parse_assignments
 from ...plant.driver import Driver, DriverConfig
+from ...plant.commonroad import CommonRoadConfig, CommonRoadPlant
 from ...plant.loop import run_loop
 from ...plant.sensors import SensorConfig, SensorSuite
 from ...plant.vehicle import PlantConfig, VehiclePlant
 from ...scenarios import scenario_duration
 from ..accuracy import Case, Row, make_estimator, setup
+from ..drives import OWN, vehicle_set
 from ..jobs import map_ordered
 from .cases import DURATION, FMVSS_FAMILY, ControlCase, Source, scenario_mu, steer_times
 from .measures import control_metrics, fmvss126_metrics
@@ -32,9 +35,10 @@ def _hardened(estimator: str) -> dict:
 
 
 def _controller_values(case: ControlCase, s, sc) -> dict:
-    """Parameters of the case's controller (without its vehicle)."""
+    """Parameters of the case's controller (without its vehicle): the case's on top of the defaults, the row's on
+    top of them (what makes a row, e.g. ``friction_source = 1``, stays under a tuned parameter file)."""
     src = case.source
-    values = {"mu": scenario_mu(sc), "yaw_rate_source": 1, **dict(src.params), **dict(case.params)}
+    values = {"mu": scenario_mu(sc), "yaw_rate_source": 1, **dict(case.params), **dict(src.params)}
     if src.controller == "StabilityController":
         values.update(estimator=src.estimator, estimator_profile=1)
     return values
@@ -46,8 +50,12 @@ def _library(case: ControlCase, s, duration: float) -> dict:
     from ...control.stability import StabilityController
 
     sc = s.scenario
-    driver = Driver(build(DriverConfig, sc.driver_params()))
-    plant = VehiclePlant(build(PlantConfig, s.plant))
+    n = vehicle_set(case.plant)
+    # on a CommonRoad car the driver knows it by its identified file (as the estimators and the controller do)
+    driver = Driver(build(DriverConfig, sc.driver_params() if n is None else
+                          {**sc.driver_params(), **{k: s.driver[k] for k in ("vehicle", "vehicle_overrides")}}))
+    plant = (VehiclePlant(build(PlantConfig, s.plant)) if n is None
+             else CommonRoadPlant(build(CommonRoadConfig, {"vehicle_set": n, **s.plant})))
     sensors = SensorSuite(build(SensorConfig, s.sensors))
     src, chain, links = case.source, [], {}
     if src.controller:
@@ -62,8 +70,11 @@ def _library(case: ControlCase, s, duration: float) -> dict:
                       "beta_valid": "est.valid", "mu_hat": "est.mu_hat", "beta_std": "est.beta_hat_std"}
         chain.append(("controller", ctl, wiring))
         links = {"Mz_dyc": "controller.Mz_cmd"}
-    raw = run_loop(plant, driver, duration, 1e-3, sensors, chain=chain, links=links)
+    # the CommonRoad model has no answer through a spin: the run ends there ("failure")
+    raw = run_loop(plant, driver, duration, 1e-3, sensors, chain=chain, links=links, until_failure=n is not None)
     out = {"time": raw["time"]}
+    if "failure" in raw:
+        out["failure"] = raw["failure"]
     for key in _FIELDS:
         out[key] = raw[key.split(".", 1)[1]]
     out.update({k: v for k, v in raw.items() if k.startswith("controller.")})
@@ -73,6 +84,8 @@ def _library(case: ControlCase, s, duration: float) -> dict:
 def _fmpy(case: ControlCase, s, duration: float, fmu_dir) -> dict:
     from ..runs import run_scenario
 
+    if case.plant != OWN:
+        raise ValueError(f"the fmpy engine runs the project's plant; {case.plant} runs in the library engine")
     sc, src = s.scenario, case.source
     params = {**{f"sensors.{k}": v for k, v in s.sensors.items()}, **{f"plant.{k}": v for k, v in s.plant.items()}}
     diff = {k: v for k, v in dataclasses.asdict(s.estimator_vehicle).items()
@@ -96,7 +109,7 @@ def _fmpy(case: ControlCase, s, duration: float, fmu_dir) -> dict:
 
 def simulate_control(case: ControlCase, engine: str = "library", fmu_dir=DEFAULT_OUT) -> dict:
     """The arrays of one closed loop (``time`` and ``plant.*``, ``driver.*``, ``controller.*`` fields)."""
-    s = setup(Case(case.scenario, case.condition, case.seed), dict(case.overrides))
+    s = setup(Case(case.scenario, case.condition, case.seed, plant=case.plant), dict(case.overrides))
     duration = s.scenario.duration if case.overrides else DURATION.get(case.scenario, s.scenario.duration)
     if engine == "library":
         return _library(case, s, duration)
@@ -117,14 +130,20 @@ def run_control_case(item) -> dict:
     case, engine, fmu_dir = item
     t0 = time.perf_counter()
     a = simulate_control(case, engine, fmu_dir)
-    s = setup(Case(case.scenario, case.condition, case.seed), dict(case.overrides))
+    s = setup(Case(case.scenario, case.condition, case.seed, plant=case.plant), dict(case.overrides))
     row = control_metrics(a, s.vehicle, scenario_mu(s.scenario))
     row["factor"] = None
+    if "failure" in a:
+        row["failure"] = a["failure"]
     if case.scenario.startswith("fmvss126_") and "_a" in case.scenario:
         row["factor"] = float(case.scenario.split("_a")[-1].split("_")[0])
         t_bos, t_cos, freq = steer_times(s.scenario)
         if t_cos + 1.75 <= a["time"][-1]:
             row.update(fmvss126_metrics(a, t_bos, t_cos, row["factor"], freq))
+        elif "failure" in a:           # the plant's model gave up in a spin: the run fails the criteria
+            row.update(yaw_rate_ratio_1s=math.inf, yaw_rate_ratio_1p75s=math.inf, lateral_1p07s=math.nan,
+                       yaw_stable=False, responsive=False)
+            row["pass"] = False
     row.update(wall_seconds=time.perf_counter() - t0, sim_seconds=float(a["time"][-1]))
     return row
 
@@ -145,7 +164,7 @@ def control_evaluation(cases, engine: str = "library", fmu_dir=DEFAULT_OUT, work
     rows = map_ordered(run_control_case, [(c, engine, str(fmu_dir)) for c in cases], workers, scheduler, progress,
                        "control", weight=lambda item: scenario_duration(item[0].scenario), unit="sim s", log=log,
                        key=lambda item: repr((item[0], item[1])))
-    return [{"scenario": c.scenario, "condition": c.condition, "seed": c.seed, "source": c.source.label, **r}
+    return [{"scenario": c.scenario, "condition": c.condition_label, "seed": c.seed, "source": c.source.label, **r}
             for c, r in zip(cases, rows)]
 
 

@@ -80,9 +80,7 @@ def control_metrics(a: dict, vehicle: VehicleParams, mu: float, Mz_max: float | 
     model = BicycleModel.from_vehicle(vehicle, mu, nominal=True)
     ref = ReferenceModel(model, cfg.tau_beta, cfg.tau_gamma, Ts, mu)
     vx, delta = a["plant.vx"], a["driver.delta_f"]
-    beta_ref, gamma_ref = np.empty_like(vx), np.empty_like(vx)
-    for k, (d, v) in enumerate(zip(delta.tolist(), vx.tolist())):
-        beta_ref[k], gamma_ref[k] = ref.step(d, max(v, v_min))
+    beta_ref, gamma_ref = ref.run(delta, np.maximum(vx, v_min))
     mask = vx > v_min
     mz_act = np.abs(a["plant.Mz_act"])
     dt = float(a["time"][1] - a["time"][0])

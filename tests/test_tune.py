@@ -1,0 +1,164 @@
+"""The LQR tuning study (sideslip tune): search, resume, stale points, the choice and the parameter file it writes,
+which the command line and the FMUs accept."""
+import csv
+import json
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+from sideslip.fmi.param_file import read_param_file, write_param_file
+from sideslip.params import ParameterError
+from sideslip.studies.control_eval.study import _suggest, open_study, run_study
+from sideslip.studies.control_eval.tuning import (OBJECTIVES, SEARCH_SPACE, TRAINING_SET, DEVELOPMENT_SET, defaults,
+                                                  tuning_cases)
+
+pytest.importorskip("optuna")
+
+TINY = {"training": (("fmvss126_suv_mu05_a5.0", {"maneuver_t_start": 0.5, "duration": 1.5}),),
+        "training_seeds": (100,), "development": (("bench_dev_jturn_suv_ice", {"duration": 1.5}),),
+        "development_seeds": (200,), "dev_points": 2, "progress": False, "workers": 1}
+
+
+def test_the_sets_are_disjoint_from_the_control_evaluation():
+    from sideslip.studies.control_eval import SCENARIOS, fmvss_names
+    test = set(SCENARIOS) | set(fmvss_names())
+    train, dev = {n for n, _ in TRAINING_SET}, {n for n, _ in DEVELOPMENT_SET}
+    assert not (train & test) and not (dev & test) and not (train & dev)
+    cases = tuning_cases(defaults())
+    assert len(cases) == 2 * len(TRAINING_SET) and {c.seed for c in cases} == {100, 101}
+    assert all(c.source.controller == "LqrDycController" and dict(c.params) == defaults() for c in cases)
+    # every default lies in the searched range (the shipped point is the study's first)
+    for name, (kind, lo, hi) in SEARCH_SPACE.items():
+        assert lo <= defaults()[name] <= hi, name
+
+
+def test_study_runs_chooses_writes_and_goes_on_where_it_stopped(tmp_path):
+    out = tmp_path / "study"
+    s = run_study(out, n_trials=3, **TINY)
+    assert s["trials"] == 3 and s["sim_seconds"] == 3 * 1.5 and s["shipped"]["trial"] == 0
+    assert s["chosen"]["trial"] in s["pareto"]
+    rows = list(csv.DictReader((out / "trials.csv").open()))
+    assert len(rows) == 3 and set(OBJECTIVES) <= set(rows[0])
+    assert float(rows[0]["q_beta"]) == defaults()["q_beta"]            # the shipped point first
+    fmu, values = read_param_file(out / "chosen.json")
+    assert fmu == "LqrDycController" and values == s["chosen"]["parameters"]
+    assert read_param_file(out / "chosen.ssv", "LqrDycController")[1] == pytest.approx(values)
+    info = json.loads((out / "chosen.json").read_text())["info"]
+    assert set(OBJECTIVES) <= set(info["development"]) and info["trial"] == s["chosen"]["trial"]
+    assert (out / "pareto.png").stat().st_size > 10_000
+    runs = (out / "runs.jsonl").read_text().splitlines()
+    # going on to 4 points runs one more point only: the first three's runs come from the storage and the log
+    s2 = run_study(out, n_trials=4, **TINY)
+    assert s2["trials"] == 4 and s2["sim_seconds"] == 1.5
+    assert (out / "runs.jsonl").read_text().splitlines()[:len(runs)] == runs
+
+
+def test_points_left_running_by_a_dead_process_are_asked_again(tmp_path):
+    out = tmp_path / "study"
+    study = open_study(out / "journal.log")
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    import socket
+    trial = study.ask()                       # the shipped point, asked by a process that then died
+    trial.set_user_attr("owner", f"{socket.gethostname()}:{int(gone.stdout)}")
+    assert _suggest(trial) == defaults()
+    s = run_study(out, n_trials=1, **TINY)
+    assert s["released_stale"] == 1 and s["trials"] == 1 and s["shipped"]["trial"] == 1
+
+
+def test_failing_points_are_marked_failed_and_a_study_that_cannot_finish_says_why(tmp_path, monkeypatch):
+    from sideslip.studies.control_eval import study as st
+    real = st.evaluate_case
+
+    def flaky(item):                          # every point but the shipped one fails
+        params = dict(item[0].params)
+        return real(item) if params.get("q_beta", defaults()["q_beta"]) == defaults()["q_beta"] else {"error": "boom"}
+    monkeypatch.setattr(st, "evaluate_case", flaky)
+    with pytest.raises(RuntimeError, match="points failed.*boom"):
+        run_study(tmp_path / "study", n_trials=2, **TINY)    # workers=1: the patched function runs here
+    trials = open_study(tmp_path / "study" / "journal.log").trials
+    assert trials[0].state.name == "COMPLETE" and len(trials) >= 12
+    assert all(t.state.name == "FAIL" and t.user_attrs["error"].endswith("boom") for t in trials[1:])
+
+
+# ------------------------------------------------------------------------------ the parameter file
+def test_parameter_file_round_trips_and_names_what_is_wrong(tmp_path):
+    values = {"q_beta": 2.5e9, "q_gamma": 1e8, "friction_source": 1, "mu_floor": 0.3}
+    j = write_param_file(tmp_path / "p.json", "LqrDycController", values, {"note": 1})
+    x = write_param_file(tmp_path / "p.ssv", "LqrDycController", values)
+    assert read_param_file(j) == ("LqrDycController", values)
+    assert read_param_file(x, "LqrDycController") == ("LqrDycController", values)
+    assert '<ssv:Integer value="1"' in x.read_text() and 'unit="' in x.read_text()
+    with pytest.raises(ParameterError, match="q_betta.*q_beta"):
+        write_param_file(tmp_path / "bad.json", "LqrDycController", {"q_betta": 1.0})
+    (tmp_path / "range.json").write_text(json.dumps({"fmu": "LqrDycController", "parameters": {"mu_floor": 7}}))
+    with pytest.raises(ParameterError, match="mu_floor"):
+        read_param_file(tmp_path / "range.json")
+    with pytest.raises(ValueError, match="not of BaselineEsc"):
+        read_param_file(j, "BaselineEsc")
+    with pytest.raises(ValueError, match="does not name its FMU"):
+        read_param_file(x)
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "sideslip", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def test_run_and_export_ssp_apply_a_parameter_file_to_the_fmu(tmp_path, fmu_dir):
+    # a tight yaw-moment limit makes the file's effect visible in the controller FMU's output
+    write_param_file(tmp_path / "p.json", "LqrDycController", {"Mz_max": 10.0, "q_gamma": 1e9})
+    env = ["--fmu-dir", str(fmu_dir)]
+    r = _cli(*env, "run", "--scenario", "park2018_case1", "--controller", "LqrDycController", "--control-source",
+             "truth", "--duration", "4", "--params", str(tmp_path / "p.json"), "--out", str(tmp_path / "run"),
+             cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    with (tmp_path / "run" / "results.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    mz = np.array([float(row["controller.Mz_cmd"]) for row in rows])
+    assert np.max(np.abs(mz)) == pytest.approx(10.0, rel=1e-9)
+    # the estimator has no such file's FMU: a clear error before anything is built
+    write_param_file(tmp_path / "e.json", "BaselineEsc", {"Mz_max": 40.0})
+    r = _cli(*env, "run", "--scenario", "park2018_case1", "--controller", "LqrDycController", "--params",
+             str(tmp_path / "e.json"), "--out", str(tmp_path / "run2"), cwd=tmp_path)
+    assert r.returncode == 2 and "BaselineEsc, which this run does not have" in r.stderr
+    write_param_file(tmp_path / "p.ssv", "LqrDycController", {"Mz_max": 40.0})
+    r = _cli(*env, "export-ssp", str(tmp_path / "loop.ssp"), "--scenario", "park2018_case1", "--controller",
+             "LqrDycController", "--control-source", "truth", "--params", str(tmp_path / "p.ssv"), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    ssd = zipfile.ZipFile(tmp_path / "loop.ssp").read("SystemStructure.ssd").decode()
+    assert '<ssv:Parameter name="Mz_max"><ssv:Real value="40.0"' in ssd
+
+
+def _control_args(*argv):
+    import argparse
+    from sideslip.cli import control
+    p = argparse.ArgumentParser()
+    p.add_argument("--fmu-dir")
+    control.register(p.add_subparsers(dest="cmd"))
+    return control.control_case_set(p.parse_args(["control", *argv]))
+
+
+def test_control_case_sets_default_quick_plants_and_a_parameter_file(tmp_path):
+    from sideslip.studies.control_eval import OFF_PLANT, SOURCES
+    default = _control_args()
+    own = [c for c in default if c.plant == "own"]
+    assert len(own) == 22 * 2 * 2 * len(SOURCES) + 5 * 2 * 2 * len(SOURCES) and {c.seed for c in default} == {0, 1}
+    assert len(default) - len(own) == (22 + 1) * 2 * 5
+    quick = _control_args("--quick")
+    assert len(quick) == (6 + 5) * 2 * len(SOURCES) + (4 + 1) * 5
+    assert all(c.plant == "own" for c in _control_args("--quick", "--plant", "own"))
+    assert all(c.plant == OFF_PLANT for c in _control_args("--quick", "--plant", OFF_PLANT))
+    write_param_file(tmp_path / "p.json", "LqrDycController", {"q_gamma": 2e9, "friction_source": 0})
+    tuned = _control_args("--quick", "--params", str(tmp_path / "p.json"))
+    for c in tuned:
+        if c.source.controller == "LqrDycController":
+            assert dict(c.params)["q_gamma"] == 2e9
+        else:
+            assert "q_gamma" not in dict(c.params)
+    # a row's own setting stays under the file: the friction-following rows still follow
+    from sideslip.studies.control_eval.engines import _controller_values
+    from sideslip.scenarios import get_scenario
+    road = next(c for c in tuned if c.source.label == "LQR / truth, road mu")
+    assert _controller_values(road, None, get_scenario(road.scenario))["friction_source"] == 1
