@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ["kv", "run_args", "case_args", "positive", "count", "window", "file_params", "params_file_arg", "EXAMPLES_FORMAT"]
+__all__ = ["kv", "run_args", "case_args", "positive", "count", "window", "file_params", "params_file_arg",
+           "EXAMPLES_FORMAT"]
 
 EXAMPLES_FORMAT = argparse.RawDescriptionHelpFormatter
 """The help format of a command with examples in its epilog (kept as written)."""

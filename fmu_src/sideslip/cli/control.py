@@ -51,7 +51,7 @@ def _register_control(sub) -> None:
                          epilog="examples:\n  sideslip control --quick\n  sideslip control --source 'LQR / truth' "
                          "--source 'ESC / truth' --factors 5,6.5\n  sideslip control --param q_gamma=3e6 --workers 2\n"
                          "  sideslip control --resume   # go on where a stopped run stopped\n"
-                         "  sideslip control --params out/tune/chosen.json   # a tuning study's choice, on the LQR rows")
+                         "  sideslip control --params out/tune/chosen.json   # a study's choice, on the LQR rows")
     case_args(ctl, "1 seed, FMVSS 126 at 3.5A, 5A and 6.5A", "default 2, quick 1",
               "sensors or sensors+mismatch (default both)", "only this scenario besides FMVSS 126")
     ctl.add_argument("--source", action="append", help="only this row, e.g. 'LQR / truth' (repeatable)")
@@ -166,7 +166,8 @@ def register_tune(sub) -> None:
     tune.add_argument("--dev-points", type=count, default=10, help="Pareto-front points run on the development set "
                       "(default %(default)s)")
     tune.add_argument("--out", default="out/tune", help="the study's folder: its Optuna journal (shared by every "
-                      "process tuning into it; a stopped study goes on), runs.jsonl and the files (default %(default)s)")
+                      "process tuning into it; a stopped study goes on), runs.jsonl and the files "
+                      "(default %(default)s)")
     tune.add_argument("--workers", type=count, default=2, help="parallel processes (default %(default)s)")
     tune.add_argument("--scheduler", help="address of a Dask scheduler, or 'local' for a Dask cluster of --workers "
                       "processes here")

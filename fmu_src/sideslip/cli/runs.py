@@ -108,9 +108,8 @@ def _cmd_demo(args) -> int:
 
 
 def _cmd_export_ssp(args) -> int:
-    from ..cosim.ssp import export_ssp
-
     from ..cosim.assembly import scenario_components
+    from ..cosim.ssp import export_ssp
     from ..scenarios import get_scenario
 
     controller = None if args.controller in (None, "none") else args.controller

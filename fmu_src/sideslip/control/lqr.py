@@ -55,6 +55,6 @@ def gain_schedule(model: BicycleModel, q_beta: float, q_gamma: float, q_N: float
 @lru_cache(maxsize=256)
 def _gain_rows(model: BicycleModel, q_beta: float, q_gamma: float, q_N: float, v_lo: float, v_hi: float,
                n: int) -> tuple:
-    """The gains of :func:`gain_schedule`, solved once per process for a design (32 Riccati equations take tens of
-    milliseconds; a study's controllers and a friction schedule's designs repeat them)."""
+    """The gains of :func:`gain_schedule`, solved once per process for a design: a study's controllers and a
+    friction schedule's designs repeat the same Riccati equations."""
     return tuple(lqr_gains(model, v, q_beta, q_gamma, q_N) for v in speed_grid(v_lo, v_hi, n))

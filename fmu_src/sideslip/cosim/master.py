@@ -203,7 +203,8 @@ class CoSimulation:
         """The error of an FMU that refused to initialise: its own messages first (they name the parameter and the
         allowed range), the failed FMI call after them."""
         errors = [msg for inst, lvl, msg in self.messages if inst == name and lvl in ("error", "fatal")]
-        others = [f"  [{lvl}] {msg}" for inst, lvl, msg in self.messages if inst == name and lvl not in ("error", "fatal")]
+        others = [f"  [{lvl}] {msg}" for inst, lvl, msg in self.messages
+                  if inst == name and lvl not in ("error", "fatal")]
         lead = "\n".join(m if m.startswith(name) else f"{name}: {m}" for m in errors) or f"{name}: {exc}"
         return MasterError("\n".join([lead, *others] + ([f"  ({exc})"] if errors else [])))
 

@@ -63,7 +63,8 @@ def _load():
         step.argtypes = [vec, vec, vec, ctypes.c_double, ctypes.c_double, ctypes.c_double, vec]
         step.restype = ctypes.c_int
         return lib, ""
-    why = "; ".join(tried) if tried else "no compiled plant kernel for this platform (built at install with a C compiler)"
+    why = ("; ".join(tried) if tried
+           else "no compiled plant kernel for this platform (built at install with a C compiler)")
     return None, why
 
 

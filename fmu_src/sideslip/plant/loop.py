@@ -49,6 +49,9 @@ def run_loop(plant: VehiclePlant, driver: Driver, duration: float, step: float =
     """
     models = [m for m in (driver, plant, sensors) if m is not None]
     observers = observers or {}
+    for m in (*models, *(m for _, m, _ in chain)):   # slices of the slot list are written with a model's outputs
+        if len(m.outputs()) != len(m.output_names):
+            raise RuntimeError(f"{type(m).__name__}: {len(m.outputs())} outputs for {len(m.output_names)} names")
     links = links or {}
     names = [nm for m in models for nm in m.output_names]
     if len(set(names)) != len(names):  # pragma: no cover - the catalogue keeps them distinct

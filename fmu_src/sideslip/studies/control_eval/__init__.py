@@ -35,7 +35,8 @@ the default, about 6 times faster) and ``fmpy`` (the FMUs, :func:`sideslip.studi
 which agree (tests/test_stability_control.py).
 """
 from .cases import (BEST_TWO, CONDITIONS, DURATION, FMVSS_FAMILY, LAUNCH, OFF_PLANT, OFF_PLANT_SCENARIOS,
-                    OFF_PLANT_SOURCES, QUICK_FACTORS, QUICK_OFF_PLANT_FACTORS, SCENARIOS, SOURCES, ControlCase, Source, control_cases,
+                    OFF_PLANT_SOURCES, QUICK_FACTORS, QUICK_OFF_PLANT_FACTORS, SCENARIOS, SOURCES, ControlCase,
+                    Source, control_cases,
                     fmvss_names, scenario_mu, steer_times, with_controller_params)
 from .engines import control_evaluation, plot_example, run_control_case, simulate_control
 from .measures import control_metrics, fmvss126_metrics
@@ -46,4 +47,5 @@ __all__ = ["CONDITIONS", "OFF_PLANT", "OFF_PLANT_SCENARIOS", "OFF_PLANT_SOURCES"
            "QUICK_FACTORS", "QUICK_OFF_PLANT_FACTORS", "DURATION", "LAUNCH", "BEST_TWO", "Source",
            "SOURCES", "ControlCase", "control_cases", "fmvss_names", "with_controller_params", "plot_example",
            "steer_times", "scenario_mu", "fmvss126_metrics", "control_metrics", "simulate_control", "run_control_case",
-           "control_evaluation", "summarise", "format_control_evaluation", "TRAINING_SET", "DEVELOPMENT_SET", "SEARCH_SPACE"]
+           "control_evaluation", "summarise", "format_control_evaluation", "TRAINING_SET", "DEVELOPMENT_SET",
+           "SEARCH_SPACE"]

@@ -95,7 +95,8 @@ identified vehicle file (the estimator benchmark's test-set car; :mod:`sideslip.
 OFF_PLANT_SCENARIOS = ("park2018_case5",)
 """Besides FMVSS 126, what runs on :data:`OFF_PLANT`: the brake in a turn on snow."""
 OFF_PLANT_SOURCES = ("none", "LQR / truth", "LQR / SideslipFusion", "LQR / SideslipFusion, mu_hat", "ESC / truth")
-"""The rows run on :data:`OFF_PLANT` (its Python model costs ten times the project's compiled one per step)."""
+"""The rows run on :data:`OFF_PLANT` (its model is Python, many times the cost per step of the project's compiled
+one)."""
 
 
 def control_cases(sources=SOURCES, conditions=CONDITIONS, seeds=2, factors=FMVSS_FACTORS, directions=("", "_right"),

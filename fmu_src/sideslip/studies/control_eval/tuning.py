@@ -55,9 +55,9 @@ SEARCH_SPACE = {
     "f_ff": ("log", 0.5, 8.0),
 }
 """What the study searches, ``name: (kind, low, high)`` (kind ``log``: log-uniform, ``float``, ``int``): the LQR's
-weights and their friction schedule, its reference lags, the speed schedule's fade-in, the friction schedule (follow ``mu_hat`` down to
-``mu_floor``, or not), and the command shaping (rate limit, band-limited feed-forward).  ``q_N`` stays 1: the gains
-depend only on the weights' ratios."""
+weights and their friction schedule, its reference lags, the speed schedule's fade-in, the friction schedule
+(follow ``mu_hat`` down to ``mu_floor``, or not), and the command shaping (rate limit, band-limited
+feed-forward).  ``q_N`` stays 1: the gains depend only on the weights' ratios."""
 
 OBJECTIVES = ("rms_yaw_rate_error_deg_s", "effort_kNms", "max_abs_beta_deg")
 """What the study minimises, each the mean over a set's runs: yaw-rate tracking [deg/s], effort
