@@ -12,7 +12,8 @@ from fmpy.fmi1 import FMICallException
 from sideslip.bicycle import BicycleModel
 from sideslip.control.base import smoothstep
 from sideslip.control.dyc import LqrDycConfig, LqrDycController, yaw_moment_limit
-from sideslip.control.esc import BaselineEsc, EscConfig, sideslip_limit
+from sideslip.control.base import sideslip_limit
+from sideslip.control.esc import BaselineEsc, EscConfig
 from sideslip.control.feedforward import (ScheduledFeedforward, feedforward_tf, noise_gain, reference_sideslip,
                                           second_order_lowpass, sideslip_responses)
 from sideslip.control.lqr import lqr_gains, lqr_row, yaw_moment_model
@@ -29,6 +30,11 @@ from conftest import assert_save_restore_repeats, finite
 
 SUV = BicycleModel.from_vehicle(load_vehicle("pi2011_suv"), 0.8, nominal=True)
 DEFAULT = LqrDycConfig()
+PLAIN = dict(q_beta=1e10, q_gamma=3e8, q_beta_mu_exponent=0.0, q_gamma_mu_exponent=0.0, tau_beta=0.15, tau_gamma=0.10,
+             Mz_rate_max=4e4, v_fade=5.0, friction_source=0, mu_floor=0.2, deadband=0.0, beta_feedback=0, k_beta=0.0,
+             sideslip_priority=0)
+"""The drivable profile with eq 25 as published and hand-set weights and lags (none of the tuned additions): the
+shaping's tests isolate one mechanism each."""
 
 
 # ------------------------------------------------------------------------------ LQR
@@ -61,7 +67,7 @@ def test_scheduled_gains_stabilise_the_linear_bicycle_over_the_speed_range(vehic
 
 
 def test_gain_schedule_interpolation_is_close_to_the_exact_gains():
-    ctl = LqrDycController(LqrDycConfig(mu=0.8))
+    ctl = LqrDycController(LqrDycConfig(mu=0.8, q_beta_mu_exponent=0.0, q_gamma_mu_exponent=0.0))
     scale = np.abs(ctl.gains.rows).max(axis=0)          # g_beta crosses zero: compare to its range
     for vx in (6.3, 13.7, 27.1, 51.0):
         exact = lqr_gains(ctl.model, vx, DEFAULT.q_beta, DEFAULT.q_gamma, DEFAULT.q_N)
@@ -126,7 +132,7 @@ def test_band_limited_feedforward_keeps_steering_noise_from_the_motors(vehicle):
     published one stays a flat high-pass; white steering noise of the benchmark's sensor (0.5 mrad, 100 Hz
     held into 1 kHz) gives a fifth or less of the published RMS, < 50 N m at 10-30 m/s but on the small car."""
     model = BicycleModel.from_vehicle(load_vehicle(vehicle), 1.0, nominal=True)
-    cfg = LqrDycConfig()
+    cfg = LqrDycConfig(**PLAIN)                                     # tau_beta 0.15 s: the docs' table
     for vx in (10.0, 18.0, 30.0):
         drivable = feedforward_tf(model, vx, cfg.tau_beta, second_order_lowpass(cfg.f_ff))
         published = feedforward_tf(model, vx, cfg.tau_beta, cfg.tau_ff)
@@ -195,7 +201,7 @@ def test_no_command_below_v_min_and_none_from_non_finite_inputs():
 
 def test_fade_in_is_a_smoothstep_between_v_min_and_v_min_plus_v_fade():
     assert [smoothstep(x) for x in (-1.0, 0.0, 0.5, 1.0, 2.0)] == [0.0, 0.0, 0.5, 1.0, 1.0]
-    cfg = LqrDycConfig(mu=0.8, v_min=5.0, v_fade=5.0, t_transfer=0.01, Mz_rate_max=1e7)
+    cfg = LqrDycConfig(**{**PLAIN, "mu": 0.8, "v_min": 5.0, "v_fade": 5.0, "t_transfer": 0.01, "Mz_rate_max": 1e7})
     for v, weight in ((4.9, 0.0), (7.5, 0.5), (10.0, 1.0), (20.0, 1.0)):
         ctl = LqrDycController(cfg)
         _hold(ctl, 300, vx_hat=v, yaw_rate_m=0.05)
@@ -207,7 +213,7 @@ def test_speed_estimate_jump_sweeps_the_schedule_without_a_bump():
     """The issue's case: 0 -> 18 m/s in one step with 0.03 rad of steer (the published feed-forward gave
     76 kN m and 433 saturated samples)."""
     for profile, ff in ((1, 1), (1, 2)):
-        ctl = LqrDycController(LqrDycConfig(vehicle="pi2011_suv", control_profile=profile, feedforward=ff))
+        ctl = LqrDycController(LqrDycConfig(**PLAIN, vehicle="pi2011_suv", control_profile=profile, feedforward=ff))
         _hold(ctl, 2000, delta_m=0.03, vx_hat=0.0, yaw_rate_m=0.0)
         out, mzff = [], []
         for _ in range(3000):
@@ -220,7 +226,7 @@ def test_speed_estimate_jump_sweeps_the_schedule_without_a_bump():
         assert np.mean(np.abs(out) >= 0.999 * ctl.Mz_max) < 0.02
     # the filter's states are the steering's, not a speed's: the published profile has no such bump either,
     # but it switches on at once
-    pub = LqrDycController(LqrDycConfig(vehicle="pi2011_suv", control_profile=0))
+    pub = LqrDycController(LqrDycConfig(**PLAIN, vehicle="pi2011_suv", control_profile=0))
     _hold(pub, 2000, delta_m=0.03, vx_hat=0.0)
     jump = _hold(pub, 10, delta_m=0.03, vx_hat=18.0)
     assert abs(pub.Mz_ff) < 500.0 and abs(jump[0]) > 5 * ctl.config.Mz_rate_max * 1e-3
@@ -481,25 +487,25 @@ def _friction_run(cls, mu_hat_of_t, **values):
 
 @pytest.mark.parametrize("cls", [LqrDycController, BaselineEsc])
 def test_friction_schedule_follows_mu_hat_and_without_it_changes_nothing(cls):
-    today = _friction_run(cls, lambda t: 0.0)
+    today = _friction_run(cls, lambda t: 0.0, friction_source=0)
     # friction_source 0 ignores the input; with 1, no estimate (0) or one at or above mu is the parameter mu
-    assert np.array_equal(_friction_run(cls, lambda t: 0.35), today)
+    assert np.array_equal(_friction_run(cls, lambda t: 0.35, friction_source=0), today)
     assert np.array_equal(_friction_run(cls, lambda t: 0.0, friction_source=1), today)
     assert np.array_equal(_friction_run(cls, lambda t: 1.2, friction_source=1), today)
     # a friction estimate on the grid: the controller designed for that friction, bit for bit
     snow = _friction_run(cls, lambda t: 0.35, friction_source=1)
-    assert np.array_equal(snow, _friction_run(cls, lambda t: 0.0, mu=0.35))
+    assert np.array_equal(snow, _friction_run(cls, lambda t: 0.0, mu=0.35, friction_source=0))
     assert np.max(np.abs(snow[:, 2] - today[:, 2])) > 0.01          # the friction-limited yaw-rate reference
     # floored at mu_floor, rounded to the grid; a drop and a recovery land on the designs of their frictions
     assert np.array_equal(_friction_run(cls, lambda t: 0.01, friction_source=1, mu_floor=0.3),
-                          _friction_run(cls, lambda t: 0.0, mu=0.3))
+                          _friction_run(cls, lambda t: 0.0, mu=0.3, friction_source=0))
     switching = _friction_run(cls, lambda t: 0.343 if t < 1.2 else 1.0, friction_source=1)
     assert np.array_equal(switching[:1200], snow[:1200])
 
 
 def test_the_sideslip_feedback_is_weighted_by_the_estimates_std():
     def fb(std, **values):
-        ctl = LqrDycController(build(LqrDycConfig, {"vehicle": "park2018_sonata", **values}))
+        ctl = LqrDycController(build(LqrDycConfig, {**PLAIN, "vehicle": "park2018_sonata", **values}))
         out = []
         for k in range(1500):
             s = math.sin(3.0 * k * 1e-3)
@@ -531,7 +537,7 @@ def test_reference_run_over_arrays_equals_its_steps_bit_for_bit(tau_gamma):
 
 
 def test_weights_follow_the_design_friction_and_without_exponents_nothing_changes():
-    base = {"vehicle": "pi2011_suv", "mu": 0.4, "q_gamma": 3e8, "q_beta": 1e10}
+    base = {**PLAIN, "vehicle": "pi2011_suv", "mu": 0.4}
     scheduled = LqrDycController(build(LqrDycConfig, {**base, "q_gamma_mu_exponent": 2.0, "q_beta_mu_exponent": -1.0,
                                                       "mu_ref": 0.8}))
     plain = LqrDycController(build(LqrDycConfig, {**base, "q_gamma": 3e8 * 0.5 ** 2, "q_beta": 1e10 * 0.5 ** -1}))
@@ -557,3 +563,54 @@ def test_pool_workers_run_one_blas_thread_each(monkeypatch):
     from sideslip.studies.jobs import map_ordered
     monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
     assert map_ordered(_blas_threads, [0, 1], workers=2, progress=False) == ["1", "1"]
+
+
+def _feedback(beta_hat, yaw_rate, **values):
+    """Mz_fb of an LQR (Sonata, 20 m/s, steering 0.02 rad held 2 s) with the sideslip and yaw rate held at
+    ``beta_hat`` and ``yaw_rate``, with the references and gains it used."""
+    ctl = LqrDycController(build(LqrDycConfig, {**PLAIN, "vehicle": "park2018_sonata", "t_transfer": 0.001,
+                                                **values}))
+    _hold(ctl, 2000, delta_m=0.02, vx_hat=20.0, beta_hat=beta_hat, yaw_rate_m=yaw_rate)
+    _, beta_ref, gamma_ref, _, fb = ctl.outputs()
+    return fb, beta_ref, gamma_ref, ctl.gains(20.0), ctl
+
+
+def test_lqr_dead_band_band_limited_sideslip_feedback_sideslip_first_and_limiter():
+    fb, beta_ref, gamma_ref, (g_beta, g_gamma), _ = _feedback(0.0, 0.0)
+    assert beta_ref < -0.003 and gamma_ref > 0.05              # a left turn at 20 m/s: beta* < 0
+    # as published: both errors as they are
+    for beta, r in ((0.5 * beta_ref, gamma_ref + 0.01), (2.0 * beta_ref, gamma_ref - 0.1)):
+        assert _feedback(beta, r)[0] == pytest.approx(g_beta * (beta_ref - beta) + g_gamma * (gamma_ref - r))
+    # yaw-rate dead band: nothing inside it, the error less the band beyond
+    assert _feedback(beta_ref, gamma_ref + 0.01, deadband=0.02)[0] == pytest.approx(0.0, abs=1e-6)
+    assert _feedback(beta_ref, gamma_ref - 0.1, deadband=0.02)[0] == pytest.approx(g_gamma * 0.08)
+    # sideslip beyond its reference only: 0 between 0 and beta*, the distance to the band outside it
+    on = {"beta_feedback": 1}
+    assert _feedback(0.5 * beta_ref, gamma_ref, **on)[0] == pytest.approx(0.0, abs=1e-6)
+    assert _feedback(2.0 * beta_ref, gamma_ref, **on)[0] == pytest.approx(g_beta * (beta_ref - 2.0 * beta_ref))
+    assert _feedback(-beta_ref, gamma_ref, **on)[0] == pytest.approx(g_beta * beta_ref)
+    # sideslip first: sliding beyond the reference, no moment into the slide; within it, or turning back, as it was
+    first = {"sideslip_priority": 1}
+    into = _feedback(2.0 * beta_ref, gamma_ref - 0.3)[0]              # eq 25: the yaw-rate term wins, into the turn
+    assert into > 0.0 and _feedback(2.0 * beta_ref, gamma_ref - 0.3, **first)[0] == 0.0
+    back = _feedback(2.0 * beta_ref, gamma_ref + 0.1)[0]
+    assert back < 0.0 and _feedback(2.0 * beta_ref, gamma_ref + 0.1, **first)[0] == back
+    assert _feedback(0.5 * beta_ref, gamma_ref - 0.3, **first)[0] == _feedback(0.5 * beta_ref, gamma_ref - 0.3)[0] > 0
+    # the sideslip limiter adds the ESC's moment to the feedback
+    beta = -(sideslip_limit(1.0) + 0.02)
+    fb_lim, *_, ctl = _feedback(beta, gamma_ref, k_beta=10.0)
+    esc = BaselineEsc(EscConfig(vehicle="park2018_sonata", t_transfer=0.001, friction_source=0))
+    _hold(esc, 50, vx_hat=20.0, beta_hat=beta)
+    assert ctl.beta_limit == esc.beta_limit and esc.outputs()[4] == pytest.approx(-10.0 * esc.vehicle.I_zz * 0.02)
+    assert fb_lim - _feedback(beta, gamma_ref)[0] == pytest.approx(esc.outputs()[4])
+
+
+def test_a_subclass_default_keeps_the_parameters_declaration():
+    from sideslip.control.base import YawMomentConfig
+    from sideslip.params import declared_fields
+    base = dict((f.name, i) for f, i in declared_fields(YawMomentConfig))
+    esc = dict((f.name, (f, i)) for f, i in declared_fields(EscConfig))
+    assert EscConfig().deadband == 0.035 and YawMomentConfig().deadband == 0.0 and LqrDycConfig().k_beta == 0.0
+    lqr = dict((f.name, i) for f, i in declared_fields(LqrDycConfig))
+    assert lqr["tau_beta"] is base["tau_beta"] and YawMomentConfig().tau_beta == EscConfig().tau_beta == 0.15
+    assert esc["deadband"][1] is base["deadband"] and esc["k_beta"][1] is base["k_beta"]

@@ -108,7 +108,7 @@ def _cli(*args, cwd):
 
 def test_run_and_export_ssp_apply_a_parameter_file_to_the_fmu(tmp_path, fmu_dir):
     # a tight yaw-moment limit makes the file's effect visible in the controller FMU's output
-    write_param_file(tmp_path / "p.json", "LqrDycController", {"Mz_max": 10.0, "q_gamma": 1e9})
+    write_param_file(tmp_path / "p.json", "LqrDycController", {"Mz_max": 10.0, "q_gamma": 1e9, "deadband": 0.0})
     env = ["--fmu-dir", str(fmu_dir)]
     r = _cli(*env, "run", "--scenario", "park2018_case1", "--controller", "LqrDycController", "--control-source",
              "truth", "--duration", "4", "--params", str(tmp_path / "p.json"), "--out", str(tmp_path / "run"),
@@ -152,8 +152,8 @@ def test_control_case_sets_default_quick_plants_and_a_parameter_file(tmp_path):
     assert all(c.plant == OFF_PLANT for c in _control_args("--quick", "--plant", OFF_PLANT))
     write_param_file(tmp_path / "p.json", "LqrDycController", {"q_gamma": 2e9, "friction_source": 0})
     tuned = _control_args("--quick", "--params", str(tmp_path / "p.json"))
-    for c in tuned:
-        if c.source.controller == "LqrDycController":
+    for c in tuned:                           # the drivable LQR rows; the published one stays the paper's
+        if c.source.controller == "LqrDycController" and c.source.label != "LQR published / truth":
             assert dict(c.params)["q_gamma"] == 2e9
         else:
             assert "q_gamma" not in dict(c.params)
@@ -162,3 +162,45 @@ def test_control_case_sets_default_quick_plants_and_a_parameter_file(tmp_path):
     from sideslip.scenarios import get_scenario
     road = next(c for c in tuned if c.source.label == "LQR / truth, road mu")
     assert _controller_values(road, None, get_scenario(road.scenario))["friction_source"] == 1
+
+
+def test_straight_drives_and_responsiveness_are_constraints_not_objectives(tmp_path, monkeypatch):
+    from sideslip.studies.control_eval import tuning
+    moving = {"rms_yaw_rate_error_deg_s": 2.0, "effort_Nms": 3000.0, "max_abs_beta_deg": 4.0, "saturated_pct": 0.0,
+              "rms_dMz_dt": 1.0, "sim_seconds": 5.0}
+    fmvss = {**moving, "yaw_stable": True, "lateral_1p07s": 1.7}
+    figures = tuning.objectives([moving, fmvss, {"straight": True, "rms_Mz_cmd": 70.0, "sim_seconds": 14.0}])
+    assert figures["effort_kNms"] == 3.0 and figures["max_abs_beta_deg"] == 4.0 and figures["sim_seconds"] == 24.0
+    assert figures["straight_rms_Mz_cmd"] == 70.0 and figures["fmvss_lateral_m"] == 1.7
+    assert tuning.constraints(figures, {"fmvss_lateral_m": 1.8}) == pytest.approx(
+        {"straight": 70.0 - tuning.STRAIGHT_RMS_MAX, "responsive": 0.1})
+    # a study whose straight drive no point keeps quiet enough: every point infeasible, the choice still made
+    monkeypatch.setattr(tuning, "STRAIGHT_RMS_MAX", -1.0)
+    straight = ("control_tune_straight_suv", {"duration": 1.5})
+    s = run_study(tmp_path / "study", n_trials=2, **{**TINY, "training": (*TINY["training"], straight),
+                                                      "development": (*TINY["development"], straight)})
+    study = open_study(tmp_path / "study" / "journal.log")
+    assert study.best_trials == [] and s["chosen"]["trial"] in s["pareto"]
+    assert all(t.user_attrs["straight_rms_Mz_cmd"] >= 0.0 for t in study.trials)     # infeasible under -1 N m
+    rows = list(csv.DictReader((tmp_path / "study" / "trials.csv").open()))
+    assert len(rows) == 2 and all(float(r["straight_rms_Mz_cmd"]) >= 0.0 for r in rows)
+
+
+def test_a_study_started_from_a_point_runs_it_on_the_development_set(tmp_path):
+    start = {"q_beta": 1.0e8, "q_gamma": 1.0e6, "Mz_max": 3000.0}       # Mz_max is not searched: left out
+    s = run_study(tmp_path / "study", n_trials=2, start=[start], **{**TINY, "dev_points": 1})
+    study = open_study(tmp_path / "study" / "journal.log", start=[start])   # opened again: not asked twice
+    assert len(study.trials) == 2 and study.trials[1].params == {**defaults(), "q_beta": 1.0e8, "q_gamma": 1.0e6}
+    # the one front point the development set gets is the best tracking (the shipped); the start point runs too
+    assert study.trials[1].values[0] > study.trials[0].values[0]
+    assert set(s["development"]) == {"0", "1", "shipped", "esc"}
+
+
+def test_the_shipped_tuned_file_is_a_point_of_the_search_space_the_fmu_accepts():
+    from pathlib import Path
+    from sideslip.control.dyc import LqrDycConfig
+    from sideslip.params import build
+    fmu, values = read_param_file(Path(__file__).resolve().parents[1] / "examples" / "lqr_tuned.json")
+    assert fmu == "LqrDycController" and set(values) == set(SEARCH_SPACE)
+    cfg = build(LqrDycConfig, values)
+    assert all(getattr(cfg, k) == v for k, v in values.items())

@@ -16,8 +16,8 @@ from typing import Any, Iterable, Mapping
 
 from .units import QUANTITIES
 
-__all__ = ["ParamInfo", "ParameterError", "ParamGroup", "ChoiceIndices", "param", "check", "declared_fields", "build", "parse_bool",
-           "parse_assignment", "parse_assignments", "format_assignments", "describe_range", "did_you_mean", "one_of"]
+__all__ = ["ParamInfo", "ParameterError", "ParamGroup", "ChoiceIndices", "param", "redefault", "check",
+           "declared_fields", "build", "parse_bool", "parse_assignment", "parse_assignments", "format_assignments", "describe_range", "did_you_mean", "one_of"]
 
 
 class ParameterError(ValueError):
@@ -116,6 +116,13 @@ def param(default, quantity: str = "Dimensionless", description: str = "", *, ge
     info = ParamInfo(quantity, description, ge, gt, le, lt,
                      tuple(choices) if choices is not None else None, tunable, fmu)
     return dataclasses.field(default=default, metadata={"param": info})
+
+
+def redefault(cls, name: str, default):
+    """The field ``name`` of the config class ``cls`` with another default (a subclass's own default for a
+    parameter it inherits: the declaration - quantity, description, range - stays in one place)."""
+    field = next(f for f in dataclasses.fields(cls) if f.name == name)
+    return dataclasses.field(default=default, metadata=field.metadata)
 
 
 def declared_fields(cls_or_obj) -> list[tuple[dataclasses.Field, ParamInfo]]:

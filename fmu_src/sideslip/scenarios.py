@@ -480,6 +480,43 @@ CONTROL_LAUNCH = Scenario(
 """A low-speed launch into a turn (the controller's speed schedule and fade-in)."""
 _add(CONTROL_LAUNCH)
 
+_STRAIGHT_NOTES = ("A straight road under the benchmark's sensor errors: any yaw moment is the sensors' noise and "
+                   "offsets through the controller.",)
+_SPIN_NOTES = ("No electronic brake-force distribution (brake_split_front 0.5): braking at 0.2 g in the turn "
+               "saturates the rear axle and the car spins out uncontrolled, as in park2018_case5.",)
+CONTROL_TUNING_STRAIGHT = (
+    Scenario("control_tune_straight_suv", "Tuning (training): straight, 12 -> 28 m/s at 0.16 g, SUV, mu 0.8",
+             "sideslip-fmu control tuning", "pi2011_suv",
+             _spec("straight", v0=12.0, v=28.0, t_go=2.0, accel=1.6, duration=14.0), 14.0, road_mu="0.8",
+             sensors=dict(_BENCH_SENSORS), notes=_STRAIGHT_NOTES),
+    Scenario("control_dev_straight_asm", "Tuning (development): straight, 14 -> 26 m/s at 0.1 g, small car, mu 0.9",
+             "sideslip-fmu control tuning", "kim2016_asm",
+             _spec("straight", v0=14.0, v=26.0, t_go=2.0, accel=1.0, duration=14.0), 14.0, road_mu="0.9",
+             sensors=dict(_BENCH_SENSORS), notes=_STRAIGHT_NOTES),
+)
+"""Straight drives of the LQR's tuning study (:mod:`sideslip.studies.control_eval.tuning`): what its command does
+with the sensors' noise, on other cars and speeds than the control evaluation's straight drive."""
+for _sc in CONTROL_TUNING_STRAIGHT:
+    _add(_sc)
+
+CONTROL_TUNING_SPIN = (
+    Scenario("control_tune_bit_suv_snow_spin", "Tuning (training): brake in a turn from 45 km/h on snow with a "
+             "50/50 brake balance, SUV, mu 0.3", "sideslip-fmu control tuning", "pi2011_suv",
+             _spec("brake_in_turn", v0=12.5, v=12.5, amplitude=3.0, rate=5.0, t_start=3.0, t_release=5.5,
+                   decel=0.2 * GRAVITY, v_end=0.0, duration=9.0), 9.0, road_mu="0.3",
+             sensors=dict(_BENCH_SENSORS), vehicle_overrides="brake_split_front=0.5", notes=_SPIN_NOTES),
+    Scenario("control_dev_bit_asm_ice_spin", "Tuning (development): brake in a turn from 47 km/h on ice with a "
+             "50/50 brake balance, small car, mu 0.25", "sideslip-fmu control tuning", "kim2016_asm",
+             _spec("brake_in_turn", v0=13.0, v=13.0, amplitude=4.0, rate=5.0, t_start=3.0, t_release=5.5,
+                   decel=0.2 * GRAVITY, v_end=0.0, duration=9.0), 9.0, road_mu="0.25",
+             sensors=dict(_BENCH_SENSORS), vehicle_overrides="brake_split_front=0.5", notes=_SPIN_NOTES),
+)
+"""Spin-outs of the LQR's tuning study: braking in a turn on a low-friction road with the rear brakes saturating
+(no electronic brake-force distribution), on other cars, speeds and roads than the control evaluation's
+``park2018_case5``."""
+for _sc in CONTROL_TUNING_SPIN:
+    _add(_sc)
+
 FMVSS_FACTORS = tuple(1.5 + 0.5 * i for i in range(11))
 """FMVSS 126 sine-with-dwell amplitudes in multiples of A (S7.7: 1.5A to 6.5A in 0.5A steps)."""
 _LAZY = {}

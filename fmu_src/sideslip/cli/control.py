@@ -51,7 +51,7 @@ def _register_control(sub) -> None:
                          epilog="examples:\n  sideslip control --quick\n  sideslip control --source 'LQR / truth' "
                          "--source 'ESC / truth' --factors 5,6.5\n  sideslip control --param q_gamma=3e6 --workers 2\n"
                          "  sideslip control --resume   # go on where a stopped run stopped\n"
-                         "  sideslip control --params out/tune/chosen.json   # a study's choice, on the LQR rows")
+                         "  sideslip control --params examples/lqr_tuned.json   # a tuned file, drivable LQR rows")
     case_args(ctl, "1 seed, FMVSS 126 at 3.5A, 5A and 6.5A", "default 2, quick 1",
               "sensors or sensors+mismatch (default both)", "only this scenario besides FMVSS 126")
     ctl.add_argument("--source", action="append", help="only this row, e.g. 'LQR / truth' (repeatable)")
@@ -104,7 +104,9 @@ def control_case_set(args) -> list:
 
         fmu, values = read_param_file(args.params, "LqrDycController" if args.params.lower().endswith(".ssv")
                                       else None)
-        cases = [ce.with_controller_params(c, tuple(values.items())) if c.source.controller == fmu else c
+        # a file is a drivable controller's: the published profile's row stays the paper's form
+        cases = [ce.with_controller_params(c, tuple(values.items()))
+                 if c.source.controller == fmu and ("control_profile", 0) not in c.source.params else c
                  for c in cases]
     params = tuple(kv(args.param, "--param").items())
     if params:
@@ -113,6 +115,7 @@ def control_case_set(args) -> list:
 
 
 def _cmd_tune(args) -> int:
+    from ..fmi.param_file import read_param_file
     from ..studies.control_eval.study import EFFORT_CAP, run_study
     from ..studies.control_eval.tuning import OBJECTIVES
 
@@ -122,8 +125,10 @@ def _cmd_tune(args) -> int:
         if args.source not in ESTIMATORS:
             raise ValueError(one_of(args.source, ESTIMATORS, "estimator"))
     out = Path(args.out)
+    start = [read_param_file(f, "LqrDycController")[1] for f in args.start]
     s = run_study(out, args.trials, args.workers, args.scheduler, None if args.source in (None, "truth") else
-                  args.source, args.sampler, args.seed, args.study, args.dev_points, fmu_dir=args.fmu_dir)
+                  args.source, args.sampler, args.seed, args.study, args.dev_points, fmu_dir=args.fmu_dir,
+                  start=start)
     names = {"rms_yaw_rate_error_deg_s": "RMS yaw-rate error [deg/s]", "effort_kNms": "effort [kN m s]",
              "max_abs_beta_deg": "max |beta| [deg]"}
     chosen, shipped = s["chosen"], s["shipped"]
@@ -155,6 +160,7 @@ def register_tune(sub) -> None:
                           "  sideslip tune --trials 120   # the same study goes on to 120 points\n"
                           "  sideslip tune --source SideslipFusion --out out/tune_fusion\n"
                           "  sideslip tune --scheduler local --workers 2   # a local Dask cluster\n"
+                          "  sideslip tune --start out/tune_a/chosen.json --out out/tune_b   # warm start\n"
                           "  sideslip control --params out/tune/chosen.json   # the held-out evaluation")
     tune.add_argument("--trials", type=count, default=60, help="points the study should hold when done, those of "
                       "earlier runs and of other processes on the same --out included (default %(default)s)")
@@ -165,6 +171,9 @@ def register_tune(sub) -> None:
     tune.add_argument("--study", default=STUDY_NAME, help="study name in the storage (default %(default)s)")
     tune.add_argument("--dev-points", type=count, default=10, help="Pareto-front points run on the development set "
                       "(default %(default)s)")
+    tune.add_argument("--start", action="append", default=[], metavar="FILE", help="parameter file of a point the "
+                      "study asks first (e.g. another study's chosen.json; repeatable): it runs on the training set "
+                      "and always on the development set")
     tune.add_argument("--out", default="out/tune", help="the study's folder: its Optuna journal (shared by every "
                       "process tuning into it; a stopped study goes on), runs.jsonl and the files "
                       "(default %(default)s)")

@@ -5,7 +5,7 @@
 * :mod:`~sideslip.control.lqr` - LQR gains (eqs 25-26) scheduled on speed;
 * :mod:`~sideslip.control.schedule` - the speed tables behind both;
 * :mod:`~sideslip.control.base` - what every controller shares: speed schedule, fade-in, bumpless
-  transfer, rate limit, saturation;
+  transfer, friction schedule, yaw-rate dead band, sideslip limiter, rate limit, saturation;
 * :mod:`~sideslip.control.dyc` - :class:`LqrDycController`;
 * :mod:`~sideslip.control.esc` - :class:`BaselineEsc` (yaw-rate PI + sideslip limiter);
 * :mod:`~sideslip.control.stability` - :class:`StabilityController` (an estimator + the LQR).

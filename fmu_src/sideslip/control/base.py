@@ -37,6 +37,16 @@ this module turns it into the command the motors get:
   own 1-sigma (its ``beta_hat_std``): an estimate as uncertain as ``s`` gets half the feedback, a sure
   one all of it.  Off by default (and ``beta_std`` left unconnected reads 0: full weight).
 
+* **yaw-rate dead band** (``deadband``): the law sees the yaw-rate error less ``deadband`` (zero inside it), so
+  that the controller stays out of normal driving and out of the gyro's noise on a straight road
+  (:func:`dead_zone`); 0 (the LQR's default) passes the error as it is;
+* **sideslip limiter** (``k_beta > 0``): beyond ``|beta_hat| > beta_limit`` a moment
+  ``K_beta (|beta_hat| - beta_limit) sign(beta_hat)``, ``K_beta = k_beta I_zz``, weighted like the sideslip
+  feedback (a car sliding out of a left turn has ``beta < 0`` and needs a negative moment).  ``beta_limit = 0``
+  takes ``atan(0.02 mu g)`` on the design's friction (11 deg on dry asphalt, 3.4 deg on snow), a sideslip bound
+  common in the DYC literature (:func:`sideslip_limit`).  The baseline ESC's second part; the LQR adds it to its
+  feedback when switched on.
+
 A controller may switch these off (``shaped = False``, the LQR's published profile): then the
 speed is used as it comes, the command is on above ``v_min`` and off below, ``beta_valid`` is
 ignored, no offset is learnt and only the saturation remains.
@@ -47,6 +57,7 @@ import math
 from dataclasses import dataclass
 
 from ..bicycle import BicycleModel
+from ..constants import GRAVITY
 from ..model import SampledModel
 from ..params import ParameterError, check, param
 from ..signals import CONTROLLER_EXTRA_INPUTS, CONTROLLER_INPUTS
@@ -54,7 +65,8 @@ from ..vehicles import VehicleConfig, VehicleParams
 from .reference import ReferenceModel
 
 __all__ = ["SCHEDULE_ACCEL", "STRAIGHT_YAW_RATE", "STRAIGHT_STEER", "STEER_OFFSET_MAX", "FRICTION_STEPS",
-           "YawMomentConfig", "yaw_moment_limit", "smoothstep", "Ramp", "YawMomentController"]
+           "YawMomentConfig", "yaw_moment_limit", "sideslip_limit", "smoothstep", "dead_zone", "Ramp",
+           "YawMomentController"]
 
 SCHEDULE_ACCEL = 15.0
 """[m/s2] fastest change of the schedule speed."""
@@ -94,6 +106,12 @@ class YawMomentConfig(VehicleConfig):
                             "(mu where that is lower)", ge=0.05, le=1.5)
     beta_std_ref: float = param(0.0, "Angle", "Std of the sideslip estimate (input beta_std) at which its "
                                 "feedback gets half weight (0: the std is not used)", ge=0, le=0.5)
+    deadband: float = param(0.0, "AngularVelocity", "Yaw-rate error the controller tolerates (dead band; 0: none)",
+                            ge=0, le=1)
+    beta_limit: float = param(0.0, "Angle", "Sideslip beyond which the limiter acts (0: atan(0.02 mu g))", ge=0,
+                              le=0.5)
+    k_beta: float = param(0.0, "IntegralGain", "Sideslip-limiter gain: K_beta = k_beta I_zz (0: no limiter)", ge=0,
+                          le=1.0e4)
 
     def __post_init__(self):
         check(self)
@@ -105,6 +123,16 @@ def yaw_moment_limit(vehicle: VehicleParams) -> float:
     """Largest yaw moment the in-wheel motors give, ``motor_T_max t / R_w`` [N m]."""
     track = vehicle.t_f if vehicle.motor_axle == "front" else vehicle.t_r
     return vehicle.motor_T_max * track / vehicle.R_w
+
+
+def sideslip_limit(mu: float) -> float:
+    """``atan(0.02 mu g)`` [rad]: the stable-sideslip bound used when ``beta_limit`` is 0."""
+    return math.atan(0.02 * mu * GRAVITY)
+
+
+def dead_zone(e: float, width: float) -> float:
+    """``e`` less ``width`` toward zero, 0 within ``+-width``: a dead band without a step at its edges."""
+    return e - width if e > width else (e + width if e < -width else 0.0)
 
 
 def smoothstep(x: float) -> float:
@@ -152,12 +180,19 @@ class YawMomentController(SampledModel):
         self._dv = SCHEDULE_ACCEL * self.Ts
         self._dmz = cfg.Mz_rate_max * self.Ts
         self._k_offset = self.Ts / cfg.t_steer_offset if cfg.t_steer_offset > 0 else 0.0
+        self.K_beta = cfg.k_beta * self.vehicle.I_zz
+        self.beta_limit = cfg.beta_limit if cfg.beta_limit > 0 else sideslip_limit(cfg.mu)
         self.mu_design = cfg.mu                    # the friction the reference and the design follow now
+        self.follows_friction = cfg.friction_source == 1
         self._designs: dict[float, dict] = {}      # grid friction -> its design (friction_source = 1)
 
     def _design(self, mu: float) -> dict:
-        """What depends on the friction ``mu``: attribute name -> value (a subclass adds its law's design)."""
-        return {"model": BicycleModel.from_vehicle(self.vehicle, mu, nominal=True)}
+        """What depends on the friction ``mu``: attribute name -> value (the bicycle model on it and, unless
+        ``beta_limit`` is given, its sideslip bound; a subclass adds its law's design)."""
+        design = {"model": BicycleModel.from_vehicle(self.vehicle, mu, nominal=True)}
+        if not self.config.beta_limit > 0:
+            design["beta_limit"] = sideslip_limit(mu)
+        return design
 
     def _follow_friction(self, mu_hat: float) -> None:
         """Set the reference and the design for the friction estimate ``mu_hat`` (module docstring)."""
@@ -200,7 +235,7 @@ class YawMomentController(SampledModel):
 
     def _sample(self, delta, vx_hat, beta_hat, yaw_rate, beta_valid, enable, mu_hat=0.0, beta_std=0.0) -> float:
         cfg = self.config
-        if cfg.friction_source:
+        if self.follows_friction:
             self._follow_friction(mu_hat)
         if self.shaped:
             if self.v_schedule != self.v_schedule:             # the first sample
@@ -222,6 +257,13 @@ class YawMomentController(SampledModel):
         a, b = self._law(delta, v, beta_ref, gamma_ref, beta_hat, yaw_rate, w_beta)
         self._parts[0], self._parts[1] = w * a, w * b
         return w * (a + b)
+
+    def _limiter(self, beta_hat: float, w_beta: float) -> float:
+        """The sideslip limiter's moment [N m] (module docstring), weighted by ``w_beta``."""
+        over = abs(beta_hat) - self.beta_limit
+        # a car sliding out has the sideslip of the opposite sign to its (excess) yaw rate: a moment of
+        # the sideslip's sign turns it back
+        return w_beta * self.K_beta * math.copysign(over, beta_hat) if over > 0.0 else 0.0
 
     def _learn_steer_offset(self, delta: float, v: float, yaw_rate: float) -> float:
         """Update the steering offset in straight driving (module docstring); the steering less it [rad]."""

@@ -7,18 +7,37 @@
 * the LQR feedback ``g_beta (beta* - beta_hat) + g_gamma (gamma* - gamma)`` of eqs 25-26:
   :mod:`sideslip.control.lqr`; the yaw rate ``gamma`` is the gyro's (``yaw_rate_m``) or, with
   ``yaw_rate_source = 1``, the estimator's (``yaw_rate_hat``, offset-corrected: a gyro offset ``b``
-  is otherwise a standing moment ``g_gamma b``, 90 N m on the SUV at 18 m/s for 0.6 deg/s);
-* the weights scheduled on the friction the design is made for (an addition to the paper, off by default):
+  is otherwise a standing moment ``g_gamma b``, 90 N m on the SUV at 18 m/s for 0.6 deg/s).
+
+Additions to the paper, each off by default (eq 25 as published) and switched on by a parameter (following
+``mu_hat`` and the nonlinear parts in the drivable profile only); the tuning study searches them, and its choice is
+a parameter file, ``examples/lqr_tuned.json``:
+
+* the weights scheduled on the friction the design is made for:
   ``q_beta (mu / mu_ref)^p_beta`` and ``q_gamma (mu / mu_ref)^p_gamma`` (``q_beta_mu_exponent``,
   ``q_gamma_mu_exponent``), ``mu`` being the parameter ``mu`` or, with ``friction_source = 1``, the estimate
   ``mu_hat``: one tuning holds the yaw rate hard on a dry road and softly on snow, where a hard hold brakes the
   rear axle's grip away (docs, "Tuning studies");
-* saturation at what the in-wheel motors can give (:mod:`sideslip.control.base`).
+* the sideslip feedback on the sideslip beyond its reference only (``beta_feedback = 1``): the error
+  ``beta* - beta_hat`` is measured from the band between 0 and ``beta*`` and is 0 inside it, so the feedback never
+  turns the car *into* a sideslip the model asks for (eq 25 does: on snow, the reference's -3.5 deg asks for a
+  moment into the turn while the car is still at -1.7 deg, and the car spins); it only turns back a car sliding
+  more than the model says, or the other way;
+* sideslip first (``sideslip_priority = 1``): while the sideslip is beyond the band
+  between 0 and ``beta*`` (and the estimate has more than half its weight), the feedback may only turn the car
+  back (a moment of the sideslip's sign), not track a yaw rate into the slide: a car sliding out of a turn on
+  snow is otherwise pushed further by the yaw-rate term, which asks for the reference's yaw rate the road cannot
+  give;
+* the yaw-rate dead band and the sideslip limiter of :mod:`sideslip.control.base` (``deadband``, ``k_beta``), the
+  limiter's moment added to the feedback.
+
+Then saturation at what the in-wheel motors can give (:mod:`sideslip.control.base`).
 
 Two profiles (parameter ``control_profile``):
 
 * ``0``, as published: eq 24 made proper by the first-order low-pass ``tau_ff``; the command is
-  switched on above ``v_min``; the sideslip feedback always on; no rate limit.
+  switched on above ``v_min``; the sideslip feedback always on; no rate limit; none of the additions (the
+  weights at the parameter ``mu``, eq 25 as printed).
 * ``1``, drivable (the default): the speed schedule, fade-in, bumpless transfer, steering-offset
   learning and rate limit of :mod:`sideslip.control.base`, and no feed-forward unless asked for
   (``feedforward = 1``): then through a second-order low-pass at ``f_ff`` (noise figures in
@@ -42,7 +61,7 @@ from dataclasses import dataclass
 from ..params import param
 from ..signals import LQR_OUTPUTS
 from ..vehicles import VehicleParams
-from .base import YawMomentConfig, YawMomentController, yaw_moment_limit
+from .base import YawMomentConfig, YawMomentController, dead_zone, yaw_moment_limit
 from .feedforward import ScheduledFeedforward, first_order_lowpass, second_order_lowpass
 from .lqr import gain_schedule
 
@@ -72,6 +91,12 @@ class LqrDycConfig(YawMomentConfig):
                                        "road)", ge=-4, le=4)
     mu_ref: float = param(1.0, "FrictionCoefficient", "Friction at which the weights are q_beta and q_gamma",
                           ge=0.05, le=1.5)
+    beta_feedback: int = param(0, "Dimensionless", "Sideslip feedback of eq 25: 0 on the error to beta_ref (as "
+                               "published), 1 on the sideslip beyond the band between 0 and beta_ref only (profile 1)",
+                               choices=(0, 1))
+    sideslip_priority: int = param(0, "Dimensionless", "1: while the sideslip is beyond the band between 0 and "
+                                   "beta_ref, the feedback only turns the car back (a moment of the sideslip's sign; "
+                                   "profile 1); 0: off", choices=(0, 1))
     feedforward: int = param(2, "Dimensionless", "Feed-forward of eq 24: 0 off, 1 on, 2 as the profile says "
                              "(published: on; drivable: off)", choices=(0, 1, 2))
     tau_ff: float = param(0.02, "Time", "Low-pass that makes the feed-forward of eq 24 proper (profile 0)", gt=0, le=1)
@@ -96,6 +121,11 @@ class LqrDycController(YawMomentController):
         cfg = config or LqrDycConfig()
         super().__init__(cfg, vehicle)
         self.shaped = cfg.control_profile == DRIVABLE
+        if not self.shaped:             # the paper's controller: none of the nonlinear parts, no friction schedule
+            self.follows_friction, self.K_beta = False, 0.0
+        self._deadband = cfg.deadband if self.shaped else 0.0
+        self._band = self.shaped and cfg.beta_feedback == 1
+        self._first = self.shaped and cfg.sideslip_priority == 1
         self.gains = self._gains(self.model, cfg.mu)
         self.use_ff = cfg.feedforward == 1 or (cfg.feedforward == 2 and not self.shaped)
         self.ff = None
@@ -107,7 +137,6 @@ class LqrDycController(YawMomentController):
     def _design(self, mu: float) -> dict:
         """The bicycle model on friction ``mu`` and its LQR gain schedule (the feed-forward stays at ``mu``)."""
         design = super()._design(mu)
-        cfg = self.config
         design["gains"] = self._gains(design["model"], mu)
         return design
 
@@ -140,4 +169,14 @@ class LqrDycController(YawMomentController):
             delta = self.reference.limited_steer(delta, v)
         n_ff = self.ff.step(delta, v) if self.use_ff else 0.0
         g_beta, g_gamma = self.gains(v)
-        return n_ff, w_beta * g_beta * (beta_ref - beta_hat) + g_gamma * (gamma_ref - yaw_rate)     # eq 25
+        e_beta = beta_ref - beta_hat
+        if self._band:                  # the error from the band [0, beta_ref] (module docstring)
+            e_beta = dead_zone(e_beta - 0.5 * beta_ref, 0.5 * abs(beta_ref))
+        n_fb = w_beta * g_beta * e_beta + g_gamma * dead_zone(gamma_ref - yaw_rate, self._deadband)     # eq 25
+        if self.K_beta:
+            n_fb += self._limiter(beta_hat, w_beta)
+        if self._first and w_beta > 0.5:
+            # sliding beyond the reference: no moment into the slide (module docstring)
+            if beta_hat < beta_ref and beta_hat < 0.0 and n_fb > 0.0 or beta_hat > beta_ref and beta_hat > 0.0 > n_fb:
+                n_fb = 0.0
+        return n_ff, n_fb

@@ -13,11 +13,8 @@ what the LQR of :mod:`sideslip.control.dyc` buys over it:
   car.  Anti-windup by conditional integration: the integral does not grow while the command
   is saturated in the direction of the error, and it bleeds off with ``T_i`` once the error is
   inside the dead band (ESC releases when the car is back on its line);
-* sideslip limiter: beyond ``|beta_hat| > beta_limit`` a moment ``K_beta (|beta_hat| - beta_limit)
-  sign(beta_hat)`` with ``K_beta = k_beta I_zz`` (a car sliding out of a left turn has ``beta < 0``
-  and needs a negative moment).  ``beta_limit = 0`` takes ``atan(0.02 mu g)`` (11 deg on dry
-  asphalt, 3.4 deg on snow), a sideslip bound common in the DYC literature.  It is weighted by
-  the estimator's ``valid``.
+* the sideslip limiter of :mod:`sideslip.control.base` (``k_beta``, ``beta_limit``), weighted by the
+  estimator's ``valid``.
 
 The gains were chosen on FMVSS 126 runs of the SUV (5 s, steer from 1 s: 5A left and 6.5A right on mu 0.8, 6.5A
 on mu 0.5), the small car's slalom and the Sonata's brake in a turn on snow of the estimator benchmark's training
@@ -32,13 +29,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..constants import GRAVITY
-from ..params import param
+from ..params import param, redefault
 from ..signals import ESC_OUTPUTS
 from ..vehicles import VehicleParams
-from .base import YawMomentConfig, YawMomentController
+from .base import YawMomentConfig, YawMomentController, dead_zone
 
-__all__ = ["EscConfig", "BaselineEsc", "sideslip_limit"]
+__all__ = ["EscConfig", "BaselineEsc"]
 
 
 @dataclass(frozen=True)
@@ -47,15 +43,8 @@ class EscConfig(YawMomentConfig):
 
     k_p: float = param(4.0, "InverseTime", "Yaw damping the PI adds: K_p = k_p I_zz", ge=0, le=100)
     T_i: float = param(0.5, "Time", "Integral time of the yaw-rate PI", gt=0, le=100)
-    deadband: float = param(0.035, "AngularVelocity", "Yaw-rate error the ESC tolerates (dead band)", ge=0, le=1)
-    beta_limit: float = param(0.0, "Angle", "Sideslip beyond which the limiter acts (0: atan(0.02 mu g))", ge=0,
-                              le=0.5)
-    k_beta: float = param(10.0, "IntegralGain", "Sideslip-limiter gain: K_beta = k_beta I_zz", ge=0, le=1.0e4)
-
-
-def sideslip_limit(mu: float) -> float:
-    """``atan(0.02 mu g)`` [rad]: the stable-sideslip bound used when ``beta_limit`` is 0."""
-    return math.atan(0.02 * mu * GRAVITY)
+    deadband: float = redefault(YawMomentConfig, "deadband", 0.035)
+    k_beta: float = redefault(YawMomentConfig, "k_beta", 10.0)
 
 
 class BaselineEsc(YawMomentController):
@@ -75,17 +64,8 @@ class BaselineEsc(YawMomentController):
         cfg = config or EscConfig()
         super().__init__(cfg, vehicle)
         self.K_p = cfg.k_p * self.vehicle.I_zz
-        self.K_beta = cfg.k_beta * self.vehicle.I_zz
-        self.beta_limit = cfg.beta_limit if cfg.beta_limit > 0 else sideslip_limit(cfg.mu)
         self._bleed = math.exp(-self.Ts / cfg.T_i)
         self.reset()
-
-    def _design(self, mu: float) -> dict:
-        """The bicycle model on friction ``mu`` and, unless ``beta_limit`` is given, its sideslip bound."""
-        design = super()._design(mu)
-        if not self.config.beta_limit > 0:
-            design["beta_limit"] = sideslip_limit(mu)
-        return design
 
     def reset(self) -> None:
         """Zero command, references and integral (see :meth:`YawMomentController.reset`)."""
@@ -94,16 +74,10 @@ class BaselineEsc(YawMomentController):
 
     def _law(self, delta, v, beta_ref, gamma_ref, beta_hat, yaw_rate, w_beta):
         cfg = self.config
-        e = gamma_ref - yaw_rate
-        e = e - cfg.deadband if e > cfg.deadband else (e + cfg.deadband if e < -cfg.deadband else 0.0)
+        e = dead_zone(gamma_ref - yaw_rate, cfg.deadband)
         lim = self.Mz_max
         if e == 0.0:
             self.integral *= self._bleed
         elif not (self.Mz >= lim and e > 0.0 or self.Mz <= -lim and e < 0.0):   # conditional integration
             self.integral += e * self.Ts
-        n_yaw = self.K_p * (e + self.integral / cfg.T_i)
-        over = abs(beta_hat) - self.beta_limit
-        # a car sliding out has the sideslip of the opposite sign to its (excess) yaw rate: a moment of
-        # the sideslip's sign turns it back
-        n_beta = w_beta * self.K_beta * math.copysign(over, beta_hat) if over > 0.0 else 0.0
-        return n_yaw, n_beta
+        return self.K_p * (e + self.integral / cfg.T_i), self._limiter(beta_hat, w_beta)

@@ -7,7 +7,6 @@ import numpy as np
 
 from ...bicycle import BicycleModel
 from ...control.base import yaw_moment_limit
-from ...control.dyc import LqrDycConfig
 from ...control.reference import ReferenceModel
 from ...units import DEG
 from ...vehicles import VehicleParams
@@ -16,6 +15,9 @@ from ..metrics import rms
 MEASURES = ("max_abs_beta_deg", "rms_yaw_rate_error_deg_s", "rms_beta_error_deg", "effort_Nms", "saturated_pct",
             "rms_Mz_cmd", "rms_dMz_dt", "max_dMz_dt", "max_counter_Mz_launch")
 """The metrics of every run (:func:`control_metrics`), averaged over seeds and maneuvers."""
+REFERENCE_LAGS = (0.15, 0.10)
+"""[s] ``tau_beta``, ``tau_gamma`` of the evaluation's reference model: fixed, so that a controller's own lags
+(which its tuning changes) do not move the yardstick every row is measured against."""
 
 
 def fmvss126_metrics(a: dict, t_bos: float, t_cos: float, factor: float, frequency: float = 0.7) -> dict:
@@ -76,9 +78,8 @@ def control_metrics(a: dict, vehicle: VehicleParams, mu: float, Mz_max: float | 
         ``max_dMz_dt`` [N m/s], ``max_counter_Mz_launch`` (the largest moment against the driver's
         steering while the car accelerates to 95 % of its top speed) - all while ``v > v_min``.
     """
-    cfg = LqrDycConfig()
     model = BicycleModel.from_vehicle(vehicle, mu, nominal=True)
-    ref = ReferenceModel(model, cfg.tau_beta, cfg.tau_gamma, Ts, mu)
+    ref = ReferenceModel(model, *REFERENCE_LAGS, Ts, mu)
     vx, delta = a["plant.vx"], a["driver.delta_f"]
     beta_ref, gamma_ref = ref.run(delta, np.maximum(vx, v_min))
     mask = vx > v_min

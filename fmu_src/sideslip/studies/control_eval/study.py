@@ -6,17 +6,21 @@ together, and that a stopped study goes on from.
 
 A study (:func:`run_study`):
 
-1. asks the sampler for a batch of points of :data:`~sideslip.studies.control_eval.tuning.SEARCH_SPACE` (the
+1. runs the baseline ESC on the training set (the bar of the responsiveness constraint), then asks the sampler
+   for a batch of points of :data:`~sideslip.studies.control_eval.tuning.SEARCH_SPACE` (the
    shipped parameters are the study's first point) and runs each on the training set
    (:data:`~sideslip.studies.control_eval.tuning.TRAINING_SET` x seeds) with the one job runner - a local pool or
    a Dask cluster, kept for the whole study; every run's figures are appended to ``runs.jsonl`` as it finishes
    and a point's objectives go to the storage as soon as its runs are in;
 2. takes the Pareto front of the training objectives (yaw-rate tracking, effort, max ``|beta|``), runs up to
-   ``dev_points`` of it, spread along the tracking axis, the shipped point and the baseline ESC (on the same
+   ``dev_points`` of it, spread along the tracking axis, the points it was started from (``start``: e.g. another
+   study's choice; TPE's fronts differ much between studies), the shipped point and the baseline ESC (on the same
    source) on the development set, and chooses what the LQR has to earn against the ESC: among the points with
-   at most :data:`EFFORT_CAP` times the ESC's effort and at least as many FMVSS 126 runs yaw-stable, the
-   smallest sum of yaw-rate error and max ``|beta|``, each over the ESC's (without such a point, the smallest
-   sum of all three ratios among those keeping the FMVSS 126 runs stable);
+   at most :data:`EFFORT_CAP` times the ESC's effort, at least as many FMVSS 126 runs yaw-stable and within the
+   constraints (:func:`~sideslip.studies.control_eval.tuning.constraints`: the straight drive quiet, the FMVSS
+   runs as responsive as the ESC's), the smallest sum of yaw-rate error and max ``|beta|``, each over the ESC's
+   (without such a point, the smallest sum of all three ratios among those keeping the FMVSS 126 runs stable and
+   within the constraints, or failing that stable);
 3. writes the chosen point as a parameter file (``chosen.json``, ``chosen.ssv``:
    :mod:`sideslip.fmi.param_file`), every point (``trials.csv``), the Pareto-front plot (``pareto.png``) and
    ``summary.json`` (the study's throughput: simulated seconds per wall second).
@@ -42,7 +46,7 @@ from ...progress import progress_bar
 from ...scenarios import get_scenario
 from ..jobs import ResultLog, parallel_map, worker_pool
 from .tuning import (DEVELOPMENT_SEEDS, DEVELOPMENT_SET, OBJECTIVES, SEARCH_SPACE, TRAINING_SEEDS, TRAINING_SET,
-                     defaults, evaluate_case, objectives, tuning_cases)
+                     constraints, defaults, evaluate_case, objectives, tuning_cases)
 
 __all__ = ["run_study", "SAMPLERS", "STUDY_NAME"]
 
@@ -62,8 +66,10 @@ def _optuna():
     return optuna
 
 
-def open_study(path, name: str = STUDY_NAME, sampler: str = "tpe", seed: int = 0):
-    """The study ``name`` in the journal file ``path`` (created with the shipped point as its first point).
+def open_study(path, name: str = STUDY_NAME, sampler: str = "tpe", seed: int = 0, start=()):
+    """The study ``name`` in the journal file ``path`` (created with the shipped point as its first point, then the
+    points ``start``: parameter dicts, the searched parameters they lack at their shipped values; a point the
+    study holds already is not asked again).
 
     The sampler's random state is ``seed`` plus the points the study already holds, so that a study that goes on
     draws new points rather than its first ones again."""
@@ -88,7 +94,14 @@ def open_study(path, name: str = STUDY_NAME, sampler: str = "tpe", seed: int = 0
                                 directions=["minimize"] * len(OBJECTIVES), sampler=chosen, load_if_exists=True)
     if not study.trials:
         study.enqueue_trial(defaults())
+    for point in start:
+        study.enqueue_trial(start_point(point), skip_if_exists=True)
     return study
+
+
+def start_point(values: dict) -> dict:
+    """A parameter file's values as a point of the search space (what it lacks at the shipped values)."""
+    return {**defaults(), **{k: v for k, v in values.items() if k in SEARCH_SPACE}}
 
 
 def _suggest(trial) -> dict:
@@ -176,7 +189,7 @@ def _evaluate_points(points: dict, maneuvers, seeds, source, pool, workers, log:
 def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source: str | None = None,
               sampler: str = "tpe", seed: int = 0, name: str = STUDY_NAME, dev_points: int = 10,
               training=TRAINING_SET, training_seeds=TRAINING_SEEDS, development=DEVELOPMENT_SET,
-              development_seeds=DEVELOPMENT_SEEDS, fmu_dir=DEFAULT_OUT, progress: bool = True) -> dict:
+              development_seeds=DEVELOPMENT_SEEDS, fmu_dir=DEFAULT_OUT, progress: bool = True, start=()) -> dict:
     """Run (or go on with) a tuning study until it holds ``n_trials`` finished points; choose on the development
     set and write the files (module docstring).
 
@@ -194,6 +207,8 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
         The estimator that feeds the LQR (hardened profile); None: the plant's truth.
     sampler : str
         ``tpe`` (multi-objective TPE) or ``nsga2``.
+    start : sequence of dict
+        Points the study asks first (e.g. another study's chosen parameters); they run on the development set too.
 
     Returns
     -------
@@ -205,7 +220,7 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
     """
     optuna = _optuna()
     out = Path(out)
-    study = open_study(out / "journal.log", name, sampler, seed)
+    study = open_study(out / "journal.log", name, sampler, seed, start)
     released = _release_stale(study)
     log = ResultLog(out / "runs.jsonl")
     complete_state = optuna.trial.TrialState.COMPLETE
@@ -217,6 +232,7 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
     t0, sim = time.perf_counter(), 0.0
     owner = f"{socket.gethostname()}:{os.getpid()}"
     with worker_pool(workers, scheduler) as pool:
+        esc = _esc_figures(training, training_seeds, source, pool, workers, log, fmu_dir)
         while True:
             have = len(study.get_trials(deepcopy=False, states=(complete_state,)))
             if have >= n_trials:
@@ -246,13 +262,15 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
                     return
                 for k, v in figures.items():
                     trial.set_user_attr(k, v)
+                for k, v in constraints(figures, esc).items():
+                    trial.set_constraint(k, v)
                 study.tell(trial, [figures[k] for k in OBJECTIVES])
 
             _, ran = _evaluate_points({k: p for k, (_, p) in batch.items()}, training, training_seeds, source, pool,
                                       workers, log, fmu_dir, bar, tell)
             sim += ran
         summary = _choose(study, out, source, development, development_seeds, dev_points, pool, workers, log,
-                          fmu_dir, bar)
+                          fmu_dir, bar, start, esc)
     bar.close()
     wall = time.perf_counter() - t0
     ran = sim + summary["development_sim_seconds"]          # what this run simulated, for its throughput
@@ -263,16 +281,35 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
     return summary
 
 
-def _choose(study, out: Path, source, development, seeds, dev_points: int, pool, workers, log, fmu_dir, bar) -> dict:
-    """The development-set choice among the Pareto front and the files (module docstring)."""
+def _esc_figures(maneuvers, seeds, source, pool, workers, log, fmu_dir) -> dict:
+    """The baseline ESC's :func:`objectives` on a set (its runs are kept in the log like the points')."""
+    runs = _evaluate_points({"esc": {}}, maneuvers, seeds, source, pool, workers, log, fmu_dir, None,
+                            controllers={"esc": "BaselineEsc"})[0]["esc"]
+    errors = [r["error"] for r in runs if "error" in r]
+    if errors:
+        raise RuntimeError("the baseline ESC failed on the training set: " + errors[0])
+    return objectives(runs)
+
+
+def _feasible(figures: dict, esc: dict) -> bool:
+    return all(v <= 0.0 for v in constraints(figures, esc).values())
+
+
+def _choose(study, out: Path, source, development, seeds, dev_points: int, pool, workers, log, fmu_dir, bar,
+            start=(), esc_training=None) -> dict:
+    """The development-set choice among the Pareto front (and the ``start`` points) and the files (module
+    docstring)."""
     optuna = _optuna()
     trials = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
     if not trials:
         raise RuntimeError("the study holds no finished point (every point failed: see trials.csv)")
     shipped_params = defaults()
     shipped = next((t for t in trials if all(t.params.get(k) == v for k, v in shipped_params.items())), None)
-    front = sorted(study.best_trials, key=lambda t: t.values[0])
-    picks = sorted({front[int(round(i))].number for i in np.linspace(0, len(front) - 1, min(dev_points, len(front)))})
+    # Optuna's front holds the points within the constraints; if none is, the front of them all
+    front = sorted(study.best_trials or _pareto_front(trials), key=lambda t: t.values[0])
+    picks = {front[int(round(i))].number for i in np.linspace(0, len(front) - 1, min(dev_points, len(front)))}
+    wanted = [start_point(p) for p in start]
+    picks = sorted(picks | {t.number for t in trials if any(t.params == p for p in wanted)})
     by_number = {t.number: t for t in trials}
     points = {str(n): by_number[n].params for n in picks}
     points["shipped"] = shipped_params
@@ -290,7 +327,8 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
         raise RuntimeError("no point of the Pareto front ran on the development set")
     ratio = {k: {o: s[o] / max(esc[o], 1e-9) for o in OBJECTIVES} for k, s in lqr.items()}
     stable = [k for k, s in lqr.items() if s["fmvss_stable"] >= esc["fmvss_stable"]] or list(lqr)
-    ok = [k for k in stable if lqr[k]["effort_kNms"] <= EFFORT_CAP * esc["effort_kNms"]]
+    stable = [k for k in stable if _feasible(lqr[k], esc)] or stable
+    ok = [k for k in stable if lqr[k]["effort_kNms"] <= EFFORT_CAP * esc["effort_kNms"] and _feasible(lqr[k], esc)]
     if ok:
         rank = {k: ratio[k]["rms_yaw_rate_error_deg_s"] + ratio[k]["max_abs_beta_deg"] for k in ok}
     else:
@@ -298,27 +336,35 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
     best = min(rank, key=rank.get)
     chosen = by_number[int(best)]
     info = {"study": study.study_name, "trial": chosen.number, "source": source or "truth",
-            "training": {k: chosen.user_attrs.get(k) for k in (*OBJECTIVES, "fmvss_stable", "fmvss_runs")},
+            "training": {k: chosen.user_attrs.get(k) for k in (*OBJECTIVES, "fmvss_stable", "fmvss_runs",
+                                                                "fmvss_lateral_m", "straight_rms_Mz_cmd")},
             "development": scores[best], "shipped_development": scores.get("shipped"), "esc_development": esc,
             "within_effort_cap": bool(ok), "development_score": rank[best]}
     files = [write_param_file(out / "chosen.json", "LqrDycController", chosen.params, info),
              write_param_file(out / "chosen.ssv", "LqrDycController", chosen.params)]
     files.append(_write_trials(trials, out / "trials.csv"))
-    files.append(pareto_plot(trials, front, chosen, shipped, out / "pareto.png"))
+    files.append(pareto_plot(trials, front, chosen, shipped, out / "pareto.png", esc_training))
     return {"chosen": {"trial": chosen.number, "parameters": chosen.params, **info},
             "shipped": {"trial": shipped.number if shipped else None,
                         "training": {k: shipped.user_attrs.get(k) for k in OBJECTIVES} if shipped else None,
                         "development": scores.get("shipped")},
-            "esc": {"development": esc},
+            "esc": {"development": esc, "training": esc_training},
             "pareto": [t.number for t in front], "development_scores": rank, "development": scores,
             "trials": len(trials),
             "development_sim_seconds": ran, "files": [str(f) for f in files]}
 
 
+def _pareto_front(trials) -> list:
+    """The points no other point is at least as good as in every objective and better in one (minimised)."""
+    v = np.array([t.values for t in trials])
+    return [t for t, x in zip(trials, v) if not np.any(np.all(v <= x, axis=1) & np.any(v < x, axis=1))]
+
+
 def _write_trials(trials, path: Path) -> Path:
     import csv
 
-    extra = ("worst_max_abs_beta_deg", "saturated_pct", "rms_dMz_dt", "fmvss_stable", "fmvss_runs")
+    extra = ("worst_max_abs_beta_deg", "saturated_pct", "rms_dMz_dt", "fmvss_stable", "fmvss_runs",
+             "fmvss_lateral_m", "straight_rms_Mz_cmd")
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["trial", *SEARCH_SPACE, *OBJECTIVES, *extra])
@@ -328,20 +374,25 @@ def _write_trials(trials, path: Path) -> Path:
     return path
 
 
-def pareto_plot(trials, front, chosen, shipped, path: Path) -> Path:
-    """Tracking against effort and against max ``|beta|`` of every point, the Pareto front, the shipped and the
-    chosen point (training objectives)."""
+def pareto_plot(trials, front, chosen, shipped, path: Path, esc: dict | None = None) -> Path:
+    """Tracking against effort and against max ``|beta|`` of every point (those beyond a constraint as crosses; the
+    ESC's training figures ``esc`` are the responsiveness bar), the Pareto front, the shipped and the chosen point
+    (training objectives)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.ticker import FuncFormatter
 
     v = np.array([t.values for t in trials])
+    ok = np.array([_feasible(t.user_attrs, esc) for t in trials])
     f = np.array([t.values for t in front])
     labels = ("RMS yaw-rate error [deg/s]", "effort int |Mz| dt [kN m s]", "max |beta| [deg]")
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     for ax, (i, j, c) in zip(axes, ((1, 0, 2), (2, 0, 1))):
-        sc = ax.scatter(v[:, i], v[:, j], c=v[:, c], s=14, cmap="viridis", alpha=0.6, label="points")
+        sc = ax.scatter(v[ok, i], v[ok, j], c=v[ok, c], s=14, cmap="viridis", alpha=0.6, label="points")
+        if not ok.all():
+            ax.scatter(v[~ok, i], v[~ok, j], marker="x", color="0.6", s=12,
+                       label="beyond a constraint (straight drive, responsiveness)")
         ax.scatter(f[:, i], f[:, j], facecolors="none", edgecolors="k", s=40, label="Pareto front (3 objectives)")
         if shipped is not None:
             ax.plot(shipped.values[i], shipped.values[j], "s", color="tab:orange", ms=10, label="shipped")
