@@ -605,6 +605,15 @@ def test_lqr_dead_band_band_limited_sideslip_feedback_sideslip_first_and_limiter
     assert fb_lim - _feedback(beta, gamma_ref)[0] == pytest.approx(esc.outputs()[4])
 
 
+def test_the_published_profile_has_none_of_the_additions():
+    on = dict(deadband=0.05, beta_feedback=1, sideslip_priority=1, k_beta=20.0, friction_source=1)
+    plain, added = (_friction_run(LqrDycController, lambda t: 0.35, control_profile=0, **values)
+                    for values in ({}, on))
+    assert np.array_equal(plain, added)
+    drivable = (_friction_run(LqrDycController, lambda t: 0.35, **values) for values in ({}, on))
+    assert not np.array_equal(*drivable)
+
+
 def test_a_subclass_default_keeps_the_parameters_declaration():
     from sideslip.control.base import YawMomentConfig
     from sideslip.params import declared_fields

@@ -181,9 +181,14 @@ def test_straight_drives_and_responsiveness_are_constraints_not_objectives(tmp_p
                                                       "development": (*TINY["development"], straight)})
     study = open_study(tmp_path / "study" / "journal.log")
     assert study.best_trials == [] and s["chosen"]["trial"] in s["pareto"]
-    assert all(t.user_attrs["straight_rms_Mz_cmd"] >= 0.0 for t in study.trials)     # infeasible under -1 N m
+    # each point carries its constraints for the sampler: the straight drive's is its RMS command + 1 N m
+    for t in study.trials:
+        assert t.system_attrs["constraints:straight"] == t.user_attrs["straight_rms_Mz_cmd"] + 1.0 > 0.0
     rows = list(csv.DictReader((tmp_path / "study" / "trials.csv").open()))
-    assert len(rows) == 2 and all(float(r["straight_rms_Mz_cmd"]) >= 0.0 for r in rows)
+    assert [float(r["straight_rms_Mz_cmd"]) for r in rows] == [t.user_attrs["straight_rms_Mz_cmd"]
+                                                             for t in study.trials]
+    # a figure not measured constrains nothing
+    assert tuning.constraints({"straight_rms_Mz_cmd": 0.0}, {"fmvss_lateral_m": 1.8})["responsive"] == 0.0
 
 
 def test_a_study_started_from_a_point_runs_it_on_the_development_set(tmp_path):

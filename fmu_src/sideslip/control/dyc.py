@@ -20,8 +20,8 @@ a parameter file, ``examples/lqr_tuned.json``:
   rear axle's grip away (docs, "Tuning studies");
 * the sideslip feedback on the sideslip beyond its reference only (``beta_feedback = 1``): the error
   ``beta* - beta_hat`` is measured from the band between 0 and ``beta*`` and is 0 inside it, so the feedback never
-  turns the car *into* a sideslip the model asks for (eq 25 does: on snow, the reference's -3.5 deg asks for a
-  moment into the turn while the car is still at -1.7 deg, and the car spins); it only turns back a car sliding
+  turns the car *into* a sideslip the model asks for (eq 25 does: while the car's sideslip is still short of the
+  reference's, it asks for a moment into the turn, which on snow starts a spin); it only turns back a car sliding
   more than the model says, or the other way;
 * sideslip first (``sideslip_priority = 1``): while the sideslip is beyond the band
   between 0 and ``beta*`` (and the estimate has more than half its weight), the feedback may only turn the car

@@ -355,7 +355,8 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
 
 
 def _pareto_front(trials) -> list:
-    """The points no other point is at least as good as in every objective and better in one (minimised)."""
+    """The points no other point is at least as good as in every objective and better in one (minimised): the
+    front of every point when none is within the constraints (Optuna's own function for it is private)."""
     v = np.array([t.values for t in trials])
     return [t for t, x in zip(trials, v) if not np.any(np.all(v <= x, axis=1) & np.any(v < x, axis=1))]
 

@@ -152,6 +152,8 @@ def objectives(rows: list[dict]) -> dict:
 def constraints(figures: dict, esc: dict | None = None) -> dict:
     """The study's constraints of a point's :func:`objectives` (feasible when none is above 0): ``straight``
     = ``straight_rms_Mz_cmd - STRAIGHT_RMS_MAX`` [N m] and ``responsive`` = the ESC's ``fmvss_lateral_m`` (its
-    :func:`objectives` on the same runs, ``esc``; none: 0) less the point's [m]."""
+    :func:`objectives` on the same runs, ``esc``) less the point's [m]; a figure not measured (no ESC, no such
+    run, a point of an older study) constrains nothing."""
+    lateral, bar = figures.get("fmvss_lateral_m"), (esc or {}).get("fmvss_lateral_m")
     return {"straight": figures.get("straight_rms_Mz_cmd", 0.0) - STRAIGHT_RMS_MAX,
-            "responsive": (esc or {}).get("fmvss_lateral_m", 0.0) - figures.get("fmvss_lateral_m", 0.0)}
+            "responsive": bar - lateral if lateral is not None and bar is not None else 0.0}
