@@ -32,7 +32,7 @@ SUV = BicycleModel.from_vehicle(load_vehicle("pi2011_suv"), 0.8, nominal=True)
 DEFAULT = LqrDycConfig()
 PLAIN = dict(q_beta=1e10, q_gamma=3e8, q_beta_mu_exponent=0.0, q_gamma_mu_exponent=0.0, tau_beta=0.15, tau_gamma=0.10,
              Mz_rate_max=4e4, v_fade=5.0, friction_source=0, mu_floor=0.2, deadband=0.0, beta_feedback=0, k_beta=0.0,
-             sideslip_priority=0)
+             sideslip_priority=0, k_integral=0.0)
 """The drivable profile with eq 25 as published and hand-set weights and lags (none of the tuned additions): the
 shaping's tests isolate one mechanism each."""
 
@@ -596,6 +596,19 @@ def test_lqr_dead_band_band_limited_sideslip_feedback_sideslip_first_and_limiter
     back = _feedback(2.0 * beta_ref, gamma_ref + 0.1)[0]
     assert back < 0.0 and _feedback(2.0 * beta_ref, gamma_ref + 0.1, **first)[0] == back
     assert _feedback(0.5 * beta_ref, gamma_ref - 0.3, **first)[0] == _feedback(0.5 * beta_ref, gamma_ref - 0.3)[0] > 0
+    # yaw-rate integral: the error beyond the dead band, integrated over the 2 s held, times k_integral
+    # (the reference rises through its lag first: the integral is a little short of 0.08 x 2 s)
+    fb_i, *_, ctl = _feedback(beta_ref, gamma_ref - 0.1, deadband=0.02, k_integral=0.25)
+    assert 0.12 < ctl.integral < 0.16 and fb_i == pytest.approx(g_gamma * (0.08 + 0.25 * ctl.integral))
+    # back inside the dead band it bleeds off at k_integral; saturated in the error's direction it stops growing
+    held = ctl.integral
+    _hold(ctl, 100, delta_m=0.02, vx_hat=20.0, beta_hat=beta_ref, yaw_rate_m=gamma_ref)
+    assert ctl.integral == pytest.approx(held * math.exp(-0.1 * 0.25), rel=1e-9)
+    _hold(ctl, 1000, delta_m=0.02, vx_hat=20.0, beta_hat=beta_ref, yaw_rate_m=gamma_ref - 3.0)
+    assert ctl.outputs()[0] == ctl.Mz_max
+    held = ctl.integral
+    _hold(ctl, 100, delta_m=0.02, vx_hat=20.0, beta_hat=beta_ref, yaw_rate_m=gamma_ref - 3.0)
+    assert ctl.integral == held
     # the sideslip limiter adds the ESC's moment to the feedback
     beta = -(sideslip_limit(1.0) + 0.02)
     fb_lim, *_, ctl = _feedback(beta, gamma_ref, k_beta=10.0)
@@ -605,8 +618,21 @@ def test_lqr_dead_band_band_limited_sideslip_feedback_sideslip_first_and_limiter
     assert fb_lim - _feedback(beta, gamma_ref)[0] == pytest.approx(esc.outputs()[4])
 
 
+def test_without_the_valid_gate_the_sideslip_feedback_is_weighted_by_the_std_alone():
+    def fb(**values):
+        ctl = LqrDycController(build(LqrDycConfig, {**PLAIN, "vehicle": "park2018_sonata", "t_transfer": 0.001,
+                                                    **values}))
+        _hold(ctl, 500, vx_hat=20.0, beta_hat=0.01, beta_valid=0.0, beta_std=0.01)
+        return ctl.outputs()[4], ctl.gains(20.0)[0]
+    gated, g_beta = fb()
+    assert gated == 0.0                                    # an invalid estimate: no sideslip feedback
+    assert fb(valid_gate=0)[0] == pytest.approx(-0.01 * g_beta)
+    assert fb(valid_gate=0, beta_std_ref=0.01)[0] == pytest.approx(-0.5 * 0.01 * g_beta)
+    assert fb(valid_gate=0, control_profile=0)[0] == pytest.approx(-0.01 * g_beta)
+
+
 def test_the_published_profile_has_none_of_the_additions():
-    on = dict(deadband=0.05, beta_feedback=1, sideslip_priority=1, k_beta=20.0, friction_source=1)
+    on = dict(deadband=0.05, beta_feedback=1, sideslip_priority=1, k_beta=20.0, friction_source=1, k_integral=2.0)
     plain, added = (_friction_run(LqrDycController, lambda t: 0.35, control_profile=0, **values)
                     for values in ({}, on))
     assert np.array_equal(plain, added)

@@ -186,6 +186,19 @@ def test_fmvss126_reference_angle_gives_0p3g():
     assert parse_maneuver(sc.maneuver).A == pytest.approx(a)
 
 
+def test_the_sonata_family_is_the_sonatas_own_and_spins_uncontrolled_at_2a_on_mu05():
+    from sideslip.studies.control_eval.measures import fmvss126_metrics
+    sc = get_scenario("fmvss126_sonata_mu05_a2.0", maneuver_t_start=1.0, duration=5.0)
+    man = parse_maneuver(sc.maneuver)
+    assert sc.vehicle == "park2018_sonata" and man.A == pytest.approx(fmvss126_reference_angle("park2018_sonata", 0.5))
+    res = run_loop(VehiclePlant(build(PlantConfig, sc.plant_params())), Driver(build(DriverConfig, sc.driver_params())),
+                   sc.duration)
+    arrays = {"time": res["time"], **{f"plant.{k}": res[k] for k in ("yaw_rate", "X", "Y", "yaw")},
+              "driver.delta_sw": res["delta_sw"]}
+    m = fmvss126_metrics(arrays, man.t_start, man.completion_of_steer, 2.0)
+    assert not m["yaw_stable"] and m["yaw_rate_ratio_1s"] > 0.5
+
+
 def test_path_follower_steers_smoothly_on_a_circle():
     """Regression: projecting onto path samples instead of segments made the look-ahead point
     jump by the sample spacing, a 36 Hz steering sawtooth (v / ds) in a steady turn."""

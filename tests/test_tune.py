@@ -172,8 +172,11 @@ def test_straight_drives_and_responsiveness_are_constraints_not_objectives(tmp_p
     figures = tuning.objectives([moving, fmvss, {"straight": True, "rms_Mz_cmd": 70.0, "sim_seconds": 14.0}])
     assert figures["effort_kNms"] == 3.0 and figures["max_abs_beta_deg"] == 4.0 and figures["sim_seconds"] == 24.0
     assert figures["straight_rms_Mz_cmd"] == 70.0 and figures["fmvss_lateral_m"] == 1.7
-    assert tuning.constraints(figures, {"fmvss_lateral_m": 1.8}) == pytest.approx(
-        {"straight": 70.0 - tuning.STRAIGHT_RMS_MAX, "responsive": 0.1})
+    assert tuning.constraints(figures, {"fmvss_lateral_m": 1.8, "fmvss_stable": 1}) == pytest.approx(
+        {"straight": 70.0 - tuning.STRAIGHT_RMS_MAX, "responsive": 0.1, "stable": 0.0})
+    # a point that leaves an FMVSS run unstable the ESC holds is infeasible
+    unstable = tuning.objectives([moving, {**fmvss, "yaw_stable": False}])
+    assert unstable["fmvss_stable"] == 0 and tuning.constraints(unstable, {"fmvss_stable": 1})["stable"] == 1.0
     # a study whose straight drive no point keeps quiet enough: every point infeasible, the choice still made
     monkeypatch.setattr(tuning, "STRAIGHT_RMS_MAX", -1.0)
     straight = ("control_tune_straight_suv", {"duration": 1.5})

@@ -299,7 +299,7 @@ for _v, _dur in ((40, 300.0), (80, 185.0)):
         _dur, road_mu="1.0", sensors=_KIM_SENSORS, notes=_KIM_NOTES))
 
 # ------------------------------------------------------------------------------------------------
-# FMVSS 126 sine with dwell (49 CFR 571.126 S7.7): the SUV on mu 0.5 and 0.8
+# FMVSS 126 sine with dwell (49 CFR 571.126 S7.7): the SUV and the Sonata on mu 0.5 and 0.8
 # ------------------------------------------------------------------------------------------------
 _FMVSS_NOTE = ("FMVSS 126: 80 km/h, throttle released at the beginning of steer; A is the handwheel angle for "
                "0.3 g in the slowly increasing steer test at 80 km/h on the same surface (computed with the "
@@ -308,6 +308,13 @@ _FMVSS_NOTE = ("FMVSS 126: 80 km/h, throttle released at the beginning of steer;
                "and on mu 0.8 from 5A. mu 0.8 is the stability-control configuration: there the 1.83 m lateral "
                "displacement at 1.07 s is within reach (2.18 m uncontrolled at 5A); on mu 0.5 no controller can "
                "reach it (the spinning car makes 1.68 m, a stable one less).")
+_FMVSS_CARS = {"suv": ("pi2011_suv", "SUV", _FMVSS_NOTE),
+               "sonata": ("park2018_sonata", "Sonata", (
+                   _FMVSS_NOTE[0], "The park2018_sonata (1819 kg) loses yaw stability uncontrolled at lower "
+                   "amplitudes than the SUV: on mu 0.5 from 1.5A and on mu 0.8 from 3A (on the Magic Formula tires of "
+                   "sensors+mismatch from 2A and 3.5A). The LQR's tuning study trains and chooses on some of these "
+                   "runs; the control evaluation runs none of them."))}
+"""FMVSS 126 families: car key of the scenario names -> (vehicle, label, notes)."""
 _FMVSS_SENSORS = dict(seed=126, imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0, gps_rate=10.0)
 _FMVSS_MU = {"05": 0.5, "08": 0.8}
 
@@ -342,19 +349,19 @@ _SWD_DURATION, _SIS_DURATION = 8.0, 25.0
 """How long the FMVSS 126 sine-with-dwell and slowly-increasing-steer scenarios drive [s]."""
 
 
-def _fmvss(surface: str, factor: float | None, direction: float) -> Scenario:
+def _fmvss(surface: str, factor: float | None, direction: float, car: str = "suv") -> Scenario:
     side, mu = ("" if direction > 0 else "_right"), _FMVSS_MU[surface]
+    vehicle, label, notes = _FMVSS_CARS[car]
     if factor is None:
         spec = _spec("slowly_increasing_steer", direction=direction, t_start=2.0, duration=_SIS_DURATION)
-        return Scenario(f"fmvss126_suv_mu{surface}_sis{side}", f"FMVSS 126 slowly increasing steer, SUV, mu {mu}",
-                        "FMVSS 126 S7.6", "pi2011_suv", spec, _SIS_DURATION, road_mu=f"{mu}", sensors=_FMVSS_SENSORS,
-                        notes=_FMVSS_NOTE, hints={"mu": mu})
-    spec = _spec("sine_with_dwell", A=fmvss126_reference_angle("pi2011_suv", mu), factor=factor,
+        return Scenario(f"fmvss126_{car}_mu{surface}_sis{side}", f"FMVSS 126 slowly increasing steer, {label}, "
+                        f"mu {mu}", "FMVSS 126 S7.6", vehicle, spec, _SIS_DURATION, road_mu=f"{mu}",
+                        sensors=_FMVSS_SENSORS, notes=notes, hints={"mu": mu})
+    spec = _spec("sine_with_dwell", A=fmvss126_reference_angle(vehicle, mu), factor=factor,
                  direction=direction, t_start=3.0, duration=_SWD_DURATION)
-    return Scenario(f"fmvss126_suv_mu{surface}_a{factor:.1f}{side}",
-                    f"FMVSS 126 sine with dwell {factor:.1f}A, SUV, mu {mu}", "FMVSS 126 S7.7", "pi2011_suv",
-                    spec, _SWD_DURATION, road_mu=f"{mu}", sensors=_FMVSS_SENSORS, notes=_FMVSS_NOTE,
-                    hints={"mu": mu})
+    return Scenario(f"fmvss126_{car}_mu{surface}_a{factor:.1f}{side}",
+                    f"FMVSS 126 sine with dwell {factor:.1f}A, {label}, mu {mu}", "FMVSS 126 S7.7", vehicle,
+                    spec, _SWD_DURATION, road_mu=f"{mu}", sensors=_FMVSS_SENSORS, notes=notes, hints={"mu": mu})
 
 
 # ------------------------------------------------------------------------------------------------
@@ -520,10 +527,12 @@ for _sc in CONTROL_TUNING_SPIN:
 FMVSS_FACTORS = tuple(1.5 + 0.5 * i for i in range(11))
 """FMVSS 126 sine-with-dwell amplitudes in multiples of A (S7.7: 1.5A to 6.5A in 0.5A steps)."""
 _LAZY = {}
-for _surface in _FMVSS_MU:
-    for _s, _d in (("", 1.0), ("_right", -1.0)):
-        _LAZY[f"fmvss126_suv_mu{_surface}_sis{_s}"] = (_surface, None, _d)
-        _LAZY.update({f"fmvss126_suv_mu{_surface}_a{f:.1f}{_s}": (_surface, f, _d) for f in FMVSS_FACTORS})
+for _car in _FMVSS_CARS:
+    for _surface in _FMVSS_MU:
+        for _s, _d in (("", 1.0), ("_right", -1.0)):
+            _LAZY[f"fmvss126_{_car}_mu{_surface}_sis{_s}"] = (_surface, None, _d, _car)
+            _LAZY.update({f"fmvss126_{_car}_mu{_surface}_a{f:.1f}{_s}": (_surface, f, _d, _car)
+                          for f in FMVSS_FACTORS})
 
 
 def scenario_names() -> list[str]:

@@ -35,7 +35,11 @@ this module turns it into the command the motors get:
 * **trust in the sideslip estimate** (``beta_std_ref > 0``): the sideslip feedback is weighted also by
   ``s^2 / (s^2 + beta_std^2)`` with ``s = beta_std_ref``, the input ``beta_std`` being the estimator's
   own 1-sigma (its ``beta_hat_std``): an estimate as uncertain as ``s`` gets half the feedback, a sure
-  one all of it.  Off by default (and ``beta_std`` left unconnected reads 0: full weight).
+  one all of it.  Off by default (and ``beta_std`` left unconnected reads 0: full weight).  With
+  ``valid_gate = 0`` the estimator's ``valid`` is ignored and this weight is the only one: an estimator may
+  declare itself invalid for reasons its sideslip does not share (SideslipFusion does while the wheels lock in a
+  braked slide - its speed from the wheels falls below ``v_min`` - while its sideslip, held by GNSS, stays
+  accurate).
 
 * **yaw-rate dead band** (``deadband``): the law sees the yaw-rate error less ``deadband`` (zero inside it), so
   that the controller stays out of normal driving and out of the gyro's noise on a straight road
@@ -45,7 +49,11 @@ this module turns it into the command the motors get:
   feedback (a car sliding out of a left turn has ``beta < 0`` and needs a negative moment).  ``beta_limit = 0``
   takes ``atan(0.02 mu g)`` on the design's friction (11 deg on dry asphalt, 3.4 deg on snow), a sideslip bound
   common in the DYC literature (:func:`sideslip_limit`).  The baseline ESC's second part; the LQR adds it to its
-  feedback when switched on.
+  feedback when switched on;
+* **yaw-rate integral** (:meth:`YawMomentController._integrate`): the integral of the yaw-rate error beyond the
+  dead band, with conditional integration (it does not grow while the command is saturated in the direction of
+  the error) and bleeding off once the error is back inside the dead band (ESC releases when the car is back on
+  its line).  The baseline ESC's PI; the LQR adds it to its feedback when switched on.
 
 A controller may switch these off (``shaped = False``, the LQR's published profile): then the
 speed is used as it comes, the command is on above ``v_min`` and off below, ``beta_valid`` is
@@ -106,6 +114,9 @@ class YawMomentConfig(VehicleConfig):
                             "(mu where that is lower)", ge=0.05, le=1.5)
     beta_std_ref: float = param(0.0, "Angle", "Std of the sideslip estimate (input beta_std) at which its "
                                 "feedback gets half weight (0: the std is not used)", ge=0, le=0.5)
+    valid_gate: int = param(1, "Dimensionless", "1: the input beta_valid fades the sideslip feedback in and out "
+                            "(over t_transfer); 0: beta_valid is ignored, the sideslip feedback weighted by beta_std "
+                            "alone (beta_std_ref)", choices=(0, 1))
     deadband: float = param(0.0, "AngularVelocity", "Yaw-rate error the controller tolerates (dead band; 0: none)",
                             ge=0, le=1)
     beta_limit: float = param(0.0, "Angle", "Sideslip beyond which the limiter acts (0: atan(0.02 mu g))", ge=0,
@@ -223,6 +234,7 @@ class YawMomentController(SampledModel):
         self.enabled, self.beta_weight = Ramp(rate), Ramp(rate)
         self.v_schedule = math.nan                 # set by the first sample
         self.steer_offset = 0.0
+        self.integral = 0.0
         self.Mz = 0.0
         self._parts = [0.0, 0.0]
         self._out = (0.0,) * len(self.output_names)
@@ -243,7 +255,7 @@ class YawMomentController(SampledModel):
             self.v_schedule += min(max(vx_hat - self.v_schedule, -self._dv), self._dv)
             vs = self.v_schedule
             w = smoothstep((vs - cfg.v_min) / cfg.v_fade) * self.enabled.step(enable)
-            w_beta = self.beta_weight.step(beta_valid)
+            w_beta = self.beta_weight.step(beta_valid or not cfg.valid_gate)
             delta = self._learn_steer_offset(delta, vs, yaw_rate)
         else:
             vs = self.v_schedule = vx_hat
@@ -264,6 +276,17 @@ class YawMomentController(SampledModel):
         # a car sliding out has the sideslip of the opposite sign to its (excess) yaw rate: a moment of
         # the sideslip's sign turns it back
         return w_beta * self.K_beta * math.copysign(over, beta_hat) if over > 0.0 else 0.0
+
+    def _integrate(self, e: float) -> float:
+        """Advance the yaw-rate error's integral by one sample of ``e`` (the error beyond the dead band) [rad/s];
+        returns it [rad].  Conditional integration: it does not grow while the command is saturated in the direction of
+        ``e``, and it bleeds off by ``self._bleed`` per sample once ``e`` is 0 (the car back on its line)."""
+        lim = self.Mz_max
+        if e == 0.0:
+            self.integral *= self._bleed
+        elif not (self.Mz >= lim and e > 0.0 or self.Mz <= -lim and e < 0.0):
+            self.integral += e * self.Ts
+        return self.integral
 
     def _learn_steer_offset(self, delta: float, v: float, yaw_rate: float) -> float:
         """Update the steering offset in straight driving (module docstring); the steering less it [rad]."""

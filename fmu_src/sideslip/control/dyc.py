@@ -28,8 +28,11 @@ a parameter file, ``examples/lqr_tuned.json``:
   back (a moment of the sideslip's sign), not track a yaw rate into the slide: a car sliding out of a turn on
   snow is otherwise pushed further by the yaw-rate term, which asks for the reference's yaw rate the road cannot
   give;
-* the yaw-rate dead band and the sideslip limiter of :mod:`sideslip.control.base` (``deadband``, ``k_beta``), the
-  limiter's moment added to the feedback.
+* the yaw-rate dead band, the sideslip limiter and the yaw-rate integral of :mod:`sideslip.control.base`
+  (``deadband``, ``k_beta``, ``k_integral``), the limiter's moment and ``g_gamma k_integral int(e) dt`` added to
+  the feedback.  The integral tells a yaw rate that persists from a transient one: a linear gain that stops a
+  spin-prone car yawing after a sine with dwell also holds back the first half-wave, where the car turns as much
+  as asked, and with it FMVSS 126's lateral displacement; the integral grows only while the error lasts.
 
 Then saturation at what the in-wheel motors can give (:mod:`sideslip.control.base`).
 
@@ -49,13 +52,14 @@ reference (lag ``tau_beta`` = 0.15 s, faster than the car's own sideslip respons
 the yaw rate, effort and saturation on every training maneuver; band-limited so that steering noise
 stays quiet, it acts late (the figures: docs, "Stability control").
 
-No wind-up: the controller has no integrator.  Its states are the reference lags, the
-feed-forward filter (driven by the steering alone), the transfer weights and the rate limiter,
-none fed by the saturated output, so a saturated command leaves saturation as soon as the
-unsaturated one does (at the rate limit in profile 1).
+No wind-up: the controller's states are the reference lags, the feed-forward filter (driven by the steering
+alone), the transfer weights, the rate limiter and (``k_integral > 0``) the yaw-rate integral, which does not grow
+while the command is saturated in the error's direction; none is fed by the saturated output, so a saturated
+command leaves saturation as soon as the unsaturated one does (at the rate limit in profile 1).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..params import param
@@ -94,6 +98,9 @@ class LqrDycConfig(YawMomentConfig):
     beta_feedback: int = param(0, "Dimensionless", "Sideslip feedback of eq 25: 0 on the error to beta_ref (as "
                                "published), 1 on the sideslip beyond the band between 0 and beta_ref only (profile 1)",
                                choices=(0, 1))
+    k_integral: float = param(0.0, "InverseTime", "Yaw-rate integral added to the feedback, g_gamma k_integral "
+                              "int(e) dt, e the yaw-rate error beyond the dead band; it bleeds off at the same rate "
+                              "once e is inside it (profile 1); 0: off", ge=0, le=100)
     sideslip_priority: int = param(0, "Dimensionless", "1: while the sideslip is beyond the band between 0 and "
                                    "beta_ref, the feedback only turns the car back (a moment of the sideslip's sign; "
                                    "profile 1); 0: off", choices=(0, 1))
@@ -126,6 +133,8 @@ class LqrDycController(YawMomentController):
         self._deadband = cfg.deadband if self.shaped else 0.0
         self._band = self.shaped and cfg.beta_feedback == 1
         self._first = self.shaped and cfg.sideslip_priority == 1
+        self._k_integral = cfg.k_integral if self.shaped else 0.0
+        self._bleed = math.exp(-self.Ts * self._k_integral)
         self.gains = self._gains(self.model, cfg.mu)
         self.use_ff = cfg.feedforward == 1 or (cfg.feedforward == 2 and not self.shaped)
         self.ff = None
@@ -172,7 +181,10 @@ class LqrDycController(YawMomentController):
         e_beta = beta_ref - beta_hat
         if self._band:                  # the error from the band [0, beta_ref] (module docstring)
             e_beta = dead_zone(e_beta - 0.5 * beta_ref, 0.5 * abs(beta_ref))
-        n_fb = w_beta * g_beta * e_beta + g_gamma * dead_zone(gamma_ref - yaw_rate, self._deadband)     # eq 25
+        e_gamma = dead_zone(gamma_ref - yaw_rate, self._deadband)
+        n_fb = w_beta * g_beta * e_beta + g_gamma * e_gamma                                          # eq 25
+        if self._k_integral:            # the yaw rate a car keeps after the steering returned: its integral
+            n_fb += g_gamma * self._k_integral * self._integrate(e_gamma)
         if self.K_beta:
             n_fb += self._limiter(beta_hat, w_beta)
         if self._first and w_beta > 0.5:

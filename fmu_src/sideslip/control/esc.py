@@ -10,9 +10,8 @@ what the LQR of :mod:`sideslip.control.dyc` buys over it:
   stays out of normal driving;
 * PI on the yaw-rate error beyond the dead band, ``N_yaw = K_p (e + (1/T_i) int e dt)`` with
   ``K_p = k_p I_zz``: ``k_p`` [1/s] is the yaw damping the controller adds, independent of the
-  car.  Anti-windup by conditional integration: the integral does not grow while the command
-  is saturated in the direction of the error, and it bleeds off with ``T_i`` once the error is
-  inside the dead band (ESC releases when the car is back on its line);
+  car.  The integral is :mod:`sideslip.control.base`'s (conditional integration; it bleeds off with ``T_i``
+  once the error is inside the dead band);
 * the sideslip limiter of :mod:`sideslip.control.base` (``k_beta``, ``beta_limit``), weighted by the
   estimator's ``valid``.
 
@@ -67,17 +66,7 @@ class BaselineEsc(YawMomentController):
         self._bleed = math.exp(-self.Ts / cfg.T_i)
         self.reset()
 
-    def reset(self) -> None:
-        """Zero command, references and integral (see :meth:`YawMomentController.reset`)."""
-        super().reset()
-        self.integral = 0.0
-
     def _law(self, delta, v, beta_ref, gamma_ref, beta_hat, yaw_rate, w_beta):
         cfg = self.config
         e = dead_zone(gamma_ref - yaw_rate, cfg.deadband)
-        lim = self.Mz_max
-        if e == 0.0:
-            self.integral *= self._bleed
-        elif not (self.Mz >= lim and e > 0.0 or self.Mz <= -lim and e < 0.0):   # conditional integration
-            self.integral += e * self.Ts
-        return self.K_p * (e + self.integral / cfg.T_i), self._limiter(beta_hat, w_beta)
+        return self.K_p * (e + self._integrate(e) / cfg.T_i), self._limiter(beta_hat, w_beta)

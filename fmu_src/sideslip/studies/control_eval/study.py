@@ -304,7 +304,8 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
     if not trials:
         raise RuntimeError("the study holds no finished point (every point failed: see trials.csv)")
     shipped_params = defaults()
-    shipped = next((t for t in trials if all(t.params.get(k) == v for k, v in shipped_params.items())), None)
+    # a point of a study that did not search a parameter ran at its shipped value
+    shipped = next((t for t in trials if all(t.params.get(k, v) == v for k, v in shipped_params.items())), None)
     # Optuna's front holds the points within the constraints; if none is, the front of them all
     front = sorted(study.best_trials or _pareto_front(trials), key=lambda t: t.values[0])
     picks = {front[int(round(i))].number for i in np.linspace(0, len(front) - 1, min(dev_points, len(front)))}
@@ -393,7 +394,7 @@ def pareto_plot(trials, front, chosen, shipped, path: Path, esc: dict | None = N
         sc = ax.scatter(v[ok, i], v[ok, j], c=v[ok, c], s=14, cmap="viridis", alpha=0.6, label="points")
         if not ok.all():
             ax.scatter(v[~ok, i], v[~ok, j], marker="x", color="0.6", s=12,
-                       label="beyond a constraint (straight drive, responsiveness)")
+                       label="beyond a constraint")
         ax.scatter(f[:, i], f[:, j], facecolors="none", edgecolors="k", s=40, label="Pareto front (3 objectives)")
         if shipped is not None:
             ax.plot(shipped.values[i], shipped.values[j], "s", color="tab:orange", ms=10, label="shipped")
