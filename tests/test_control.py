@@ -618,6 +618,23 @@ def test_lqr_dead_band_band_limited_sideslip_feedback_sideslip_first_and_limiter
     assert fb_lim - _feedback(beta, gamma_ref)[0] == pytest.approx(esc.outputs()[4])
 
 
+def test_lqr_sideslip_feedback_within_the_band_and_beyond_it_only_turning_the_car_back():
+    on = {"beta_feedback": 2}
+    signs = set()
+    for weights in ({}, {"q_beta": 1e6, "q_gamma": 1e9}):
+        _, beta_ref, gamma_ref, (g_beta, _), _ = _feedback(0.0, 0.0, **weights)
+        signs.add(g_beta > 0.0)
+        # within the band between beta* and 0: eq 25
+        inside = _feedback(0.5 * beta_ref, gamma_ref, **on, **weights)[0]
+        assert inside == pytest.approx(g_beta * 0.5 * beta_ref)
+        # beyond it: eq 25 where that is a moment of the sideslip's sign, else the error at the band's edge
+        for beta, edge in ((2.0 * beta_ref, beta_ref), (-beta_ref, 0.0)):
+            full = g_beta * (beta_ref - beta)
+            want = full if full * beta > 0.0 else g_beta * (beta_ref - edge)
+            assert _feedback(beta, gamma_ref, **on, **weights)[0] == pytest.approx(want, abs=1e-9)
+    assert signs == {True, False}         # a high q_beta makes g_beta negative, a low one positive: both branches
+
+
 def test_without_the_valid_gate_the_sideslip_feedback_is_weighted_by_the_std_alone():
     def fb(**values):
         ctl = LqrDycController(build(LqrDycConfig, {**PLAIN, "vehicle": "park2018_sonata", "t_transfer": 0.001,

@@ -21,8 +21,13 @@ a parameter file, ``examples/lqr_tuned.json``:
 * the sideslip feedback on the sideslip beyond its reference only (``beta_feedback = 1``): the error
   ``beta* - beta_hat`` is measured from the band between 0 and ``beta*`` and is 0 inside it, so the feedback never
   turns the car *into* a sideslip the model asks for (eq 25 does: while the car's sideslip is still short of the
-  reference's, it asks for a moment into the turn, which on snow starts a spin); it only turns back a car sliding
-  more than the model says, or the other way;
+  reference's, it asks for a moment into the turn, which on snow starts a spin); beyond the band it acts as eq 25;
+* the sideslip feedback inside the band, and beyond it only to turn the car back (``beta_feedback = 2``): the
+  error is eq 25's for the sideslip held within the band between 0 and ``beta*``; the part from the sideslip beyond
+  the band is added only where it is a moment of the sideslip's sign.  Eq 25's sideslip gain ``g_beta`` has either
+  sign: a high ``q_beta`` makes it negative (a moment that turns a sliding car back), a low one positive (it then
+  mostly cancels the yaw moment the linear tires make from a sideslip, ``(C_r l_r - C_f l_f) beta``); beyond the
+  band the tires are no longer linear and a positive ``g_beta`` pushes a sliding car further into its slide;
 * sideslip first (``sideslip_priority = 1``): while the sideslip is beyond the band
   between 0 and ``beta*`` (and the estimate has more than half its weight), the feedback may only turn the car
   back (a moment of the sideslip's sign), not track a yaw rate into the slide: a car sliding out of a turn on
@@ -96,8 +101,9 @@ class LqrDycConfig(YawMomentConfig):
     mu_ref: float = param(1.0, "FrictionCoefficient", "Friction at which the weights are q_beta and q_gamma",
                           ge=0.05, le=1.5)
     beta_feedback: int = param(0, "Dimensionless", "Sideslip feedback of eq 25: 0 on the error to beta_ref (as "
-                               "published), 1 on the sideslip beyond the band between 0 and beta_ref only (profile 1)",
-                               choices=(0, 1))
+                               "published), 1 on the sideslip beyond the band between 0 and beta_ref only, 2 on the "
+                               "sideslip within the band and beyond it only where it turns the car back (profile 1)",
+                               choices=(0, 1, 2))
     k_integral: float = param(0.0, "InverseTime", "Yaw-rate integral added to the feedback, g_gamma k_integral "
                               "int(e) dt, e the yaw-rate error beyond the dead band; it bleeds off at the same rate "
                               "once e is inside it (profile 1); 0: off", ge=0, le=100)
@@ -131,7 +137,7 @@ class LqrDycController(YawMomentController):
         if not self.shaped:             # the paper's controller: none of the nonlinear parts, no friction schedule
             self.follows_friction, self.K_beta = False, 0.0
         self._deadband = cfg.deadband if self.shaped else 0.0
-        self._band = self.shaped and cfg.beta_feedback == 1
+        self._band = cfg.beta_feedback if self.shaped else 0
         self._first = self.shaped and cfg.sideslip_priority == 1
         self._k_integral = cfg.k_integral if self.shaped else 0.0
         self._bleed = math.exp(-self.Ts * self._k_integral)
@@ -179,8 +185,14 @@ class LqrDycController(YawMomentController):
         n_ff = self.ff.step(delta, v) if self.use_ff else 0.0
         g_beta, g_gamma = self.gains(v)
         e_beta = beta_ref - beta_hat
-        if self._band:                  # the error from the band [0, beta_ref] (module docstring)
+        if self._band == 1:             # the error from the band [0, beta_ref] (module docstring)
             e_beta = dead_zone(e_beta - 0.5 * beta_ref, 0.5 * abs(beta_ref))
+        elif self._band == 2:           # within the band; beyond it only what turns the car back (module docstring)
+            lo, hi = (beta_ref, 0.0) if beta_ref < 0.0 else (0.0, beta_ref)
+            inside = lo if beta_hat < lo else (hi if beta_hat > hi else beta_hat)
+            e_beta = beta_ref - inside
+            if g_beta * (inside - beta_hat) * beta_hat > 0.0:
+                e_beta += inside - beta_hat
         e_gamma = dead_zone(gamma_ref - yaw_rate, self._deadband)
         n_fb = w_beta * g_beta * e_beta + g_gamma * e_gamma                                          # eq 25
         if self._k_integral:            # the yaw rate a car keeps after the steering returned: its integral

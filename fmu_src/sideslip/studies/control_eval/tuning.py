@@ -76,7 +76,7 @@ SEARCH_SPACE = {
     "feedforward": ("int", 0, 1),
     "f_ff": ("log", 0.5, 8.0),
     "deadband": ("float", 0.0, 0.06),
-    "beta_feedback": ("int", 0, 1),
+    "beta_feedback": ("int", 0, 2),
     "k_beta": ("float", 0.0, 40.0),
     "k_integral": ("float", 0.0, 5.0),
     "valid_gate": ("int", 0, 1),
