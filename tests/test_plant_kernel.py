@@ -12,6 +12,7 @@ import pickle
 import platform
 import shutil
 import subprocess
+import sys
 import zipfile
 
 import numpy as np
@@ -96,9 +97,13 @@ def _fmu_run(fmu_dir, compiled: int) -> np.ndarray:
 def test_the_plant_fmu_runs_compiled_and_gives_the_reference(fmu_dir):
     with zipfile.ZipFile(fmu_dir / "VehiclePlant.fmu") as z:
         carried = {n.rsplit("/", 2)[-2] for n in z.namelist() if f"/{kernel.LIBRARY_NAME}." in n}
+        package = next(n.split("/")[1] for n in z.namelist() if n.endswith("/plant/kernel.py"))
     assert carried == {p for p in PLATFORMS if _find_cc(p)}
     assert "linux64" in carried
-    compiled, reference = _fmu_run(fmu_dir, 1), _fmu_run(fmu_dir, 0)
+    compiled = _fmu_run(fmu_dir, 1)
+    # the FMU's own kernel module, imported from its unpacked folder (the session built it in this process)
+    assert sys.modules[f"{package}.plant.kernel"].available(), sys.modules[f"{package}.plant.kernel"].UNAVAILABLE
+    reference = _fmu_run(fmu_dir, 0)
     assert np.max(np.abs(compiled - reference)) <= 1e-12 * np.max(np.abs(reference))
     if EXACT:
         assert np.array_equal(compiled, reference)

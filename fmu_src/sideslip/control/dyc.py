@@ -180,9 +180,11 @@ class LqrDycController(YawMomentController):
         return self._parts[1]
 
     def _law(self, delta, v, beta_ref, gamma_ref, beta_hat, yaw_rate, w_beta):
-        if self.shaped:                 # the feed-forward inverts the linear model up to the road's limit
-            delta = self.reference.limited_steer(delta, v)
-        n_ff = self.ff.step(delta, v) if self.use_ff else 0.0
+        n_ff = 0.0
+        if self.use_ff:
+            if self.shaped:             # the feed-forward inverts the linear model up to the road's limit
+                delta = self.reference.limited_steer(delta, v)
+            n_ff = self.ff.step(delta, v)
         g_beta, g_gamma = self.gains(v)
         e_beta = beta_ref - beta_hat
         if self._band == 1:             # the error from the band [0, beta_ref] (module docstring)

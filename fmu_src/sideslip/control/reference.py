@@ -54,7 +54,8 @@ class ReferenceModel:
     def targets(self, delta: float, vx: float) -> tuple[float, float]:
         """Steady-state ``(beta, gamma)`` targets [rad, rad/s] for steering ``delta`` at ``vx``."""
         k_beta, k_gamma = self.model.steady_state_gains(vx)          # eqs 21-22 without the lags
-        delta = self.limited_steer(delta, vx)
+        lim = self.mu * GRAVITY / (vx * abs(k_gamma))                 # limited_steer, with the gains at hand
+        delta = lim if delta > lim else (-lim if delta < -lim else delta)
         return k_beta * delta, k_gamma * delta
 
     def run(self, delta, vx) -> tuple:

@@ -236,6 +236,16 @@ def _guid(fmu: Path) -> str:
         return ET.fromstring(z.read("modelDescription.xml")).get("guid", "")
 
 
+def _forget_staging(path: list, package: str, script: str) -> None:
+    """Undo what pythonfmu's builder leaves in this process: it imports the wrapper ``script`` (and with it the
+    bundled ``package``) from the staging folder to write the model description, and puts that folder on
+    ``sys.path``.  An FMU of this build loaded later in this process (fmpy loads FMUs in-process) would otherwise
+    run those modules from a deleted folder, which had no compiled kernel yet, instead of its own."""
+    sys.path[:] = path
+    for module in [m for m in sys.modules if m in (package, script) or m.startswith(package + ".")]:
+        del sys.modules[module]
+
+
 def _build_one(name: str, out_dir: Path, shims: tuple[str, ...], tag: str, kernels: dict[str, Path]) -> Path:
     """Build into a private folder, then move into ``out_dir`` atomically (a concurrent reader
     never sees a half-written FMU)."""
@@ -259,9 +269,13 @@ def _build_one(name: str, out_dir: Path, shims: tuple[str, ...], tag: str, kerne
                         + "\n".join(fmu_requirements(spec)) + "\n")
         staging = Path(tmp) / "out"
         staging.mkdir()
-        fmu = Path(FmuBuilder.build_FMU(script, dest=staging, project_files=[pkg, reqs],
-                                        needsExecutionTool=False, canGetAndSetFMUstate=True,
-                                        canSerializeFMUstate=True))
+        path = list(sys.path)
+        try:
+            fmu = Path(FmuBuilder.build_FMU(script, dest=staging, project_files=[pkg, reqs],
+                                            needsExecutionTool=False, canGetAndSetFMUstate=True,
+                                            canSerializeFMUstate=True))
+        finally:
+            _forget_staging(path, package, script.stem)
         _add_bytecode(fmu, pkg)
         if KERNEL_MODULE in bundled_files(spec):
             _add_kernels(fmu, package, kernels)
