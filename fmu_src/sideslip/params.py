@@ -17,7 +17,8 @@ from typing import Any, Iterable, Mapping
 from .units import QUANTITIES
 
 __all__ = ["ParamInfo", "ParameterError", "ParamGroup", "ChoiceIndices", "param", "redefault", "check",
-           "declared_fields", "build", "parse_bool", "parse_assignment", "parse_assignments", "format_assignments", "describe_range", "did_you_mean", "one_of"]
+           "declared_fields", "build", "parse_bool", "parse_assignment", "parse_assignments", "format_assignments",
+           "describe_range", "did_you_mean", "one_of"]
 
 
 class ParameterError(ValueError):
