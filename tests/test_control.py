@@ -125,6 +125,33 @@ def test_reference_is_the_bicycle_steady_state_and_friction_limited():
     assert lagged.gamma == pytest.approx(SUV.steady_state_gains(10.0)[1] * 0.01 * (1 - math.exp(-1.0)), rel=1e-9)
 
 
+def test_held_reference_drops_with_the_friction_at_once_and_equals_the_lagged_one_below_the_limit():
+    """A friction estimate falling from 0.9 to 0.3 in a steady turn at 15 m/s: the held references are within
+    the new limit from the next sample, the plain lagged ones above it for many samples; below the limit both are
+    the same doubles."""
+    held, plain = (ReferenceModel(SUV, 0.15, 0.1, 1e-3, mu=0.9, hold_limit=h) for h in (True, False))
+    for _ in range(2000):
+        assert held.step(0.1, 15.0) == plain.step(0.1, 15.0)          # 0.1 rad asks for less than 0.9 g / v
+    gamma_before = held.gamma
+    held.mu = plain.mu = 0.3
+    kb, kg = SUV.steady_state_gains(15.0)
+    lim = 0.3 * GRAVITY / 15.0
+    beta, gamma = held.step(0.1, 15.0)
+    assert gamma_before > lim and gamma == pytest.approx(lim, rel=1e-12)
+    assert abs(beta) == pytest.approx(abs(kb / kg) * lim, rel=1e-12)  # its own target's bound
+    over = 0
+    while plain.step(0.1, 15.0)[1] > lim * (1 + 1e-9):
+        over += 1
+    assert over > 20                                                   # the lag alone: tens of samples above it
+    with pytest.raises(ValueError, match="step the references"):
+        held.run([0.01], [15.0])
+    # in the controller (friction_source = 1): the yaw-rate reference within the new limit from the sample after
+    # the estimate falls (0.8 -> 0.35 at 0.5 s, 20 m/s)
+    ref = _friction_run(LqrDycController, lambda t: 0.8 if t < 0.5 else 0.35, friction_source=1)[:, 2]
+    lim = 0.35 * GRAVITY / 20.0
+    assert np.abs(ref[400:500]).max() > 1.2 * lim and np.abs(ref[501:]).max() <= lim * (1 + 1e-12)
+
+
 # ------------------------------------------------------------------------------ feed-forward noise
 @pytest.mark.parametrize("vehicle", ["pi2011_suv", "park2018_sonata", "kim2016_asm", "nguyen2012_coms"])
 def test_band_limited_feedforward_keeps_steering_noise_from_the_motors(vehicle):

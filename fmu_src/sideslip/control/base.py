@@ -28,9 +28,11 @@ this module turns it into the command the motors get:
   steady state it follows (the nominal cornering stiffness on that friction) and the law's friction-
   dependent design (the LQR's gain schedule, the ESC's sideslip bound) follow the input ``mu_hat``, an
   estimator's friction estimate (SideslipFusion's), within ``[mu_floor, mu]`` and rounded to
-  :data:`FRICTION_STEPS`; each grid value's design is made once, when first used.  ``mu_hat`` not above
-  0 (left unconnected) is no estimate: the parameter ``mu`` holds, as it does with ``friction_source = 0``
-  (the default), so a controller without a friction estimate designs for ``mu`` alone.
+  :data:`FRICTION_STEPS`; each grid value's design is made once, when first used.  The lagged references are
+  held within the friction limit too (:mod:`~sideslip.control.reference`), so that a falling estimate lowers
+  them at once rather than through the reference's lag.  ``mu_hat`` not above 0 (left unconnected) is no
+  estimate: the parameter ``mu`` holds, as it does with ``friction_source = 0`` (the default), so a controller
+  without a friction estimate designs for ``mu`` alone.
 
 * **trust in the sideslip estimate** (``beta_std_ref > 0``): the sideslip feedback is weighted also by
   ``s^2 / (s^2 + beta_std^2)`` with ``s = beta_std_ref``, the input ``beta_std`` being the estimator's
@@ -187,7 +189,8 @@ class YawMomentController(SampledModel):
         self.model = BicycleModel.from_vehicle(self.vehicle, cfg.mu, nominal=True)
         self.Ts = cfg.Ts_control
         self.Mz_max = cfg.Mz_max if cfg.Mz_max > 0 else yaw_moment_limit(self.vehicle)
-        self.reference = ReferenceModel(self.model, cfg.tau_beta, cfg.tau_gamma, self.Ts, cfg.mu)
+        self.reference = ReferenceModel(self.model, cfg.tau_beta, cfg.tau_gamma, self.Ts, cfg.mu,
+                                        hold_limit=cfg.friction_source == 1)
         self._dv = SCHEDULE_ACCEL * self.Ts
         self._dmz = cfg.Mz_rate_max * self.Ts
         self._k_offset = self.Ts / cfg.t_steer_offset if cfg.t_steer_offset > 0 else 0.0

@@ -10,6 +10,13 @@ Friction limit: on a road of friction ``mu`` the car cannot turn faster than
 is, the sideslip target is scaled by the same factor so that the pair stays on the model's
 steady-state line (the bicycle model's ``beta / r`` ratio) instead of asking for the
 sideslip of a turn the road cannot give.
+
+Held limit (``hold_limit``, a controller following a friction estimate): the clip above acts on the
+targets, before the lags, so when the friction falls (or the speed rises) faster than ``tau_gamma`` the
+lagged references stay above what the road can turn for a while - on a road whose friction drops from
+0.9 to 0.3 within 0.4 s in a slalom, 3-7 deg/s above it for about 0.1 s.  Held, each lagged reference is
+kept within its own target's bound at the current friction and speed (``|gamma| <= mu g / v_x``,
+``|beta| <= |k_beta| mu g / (v_x |k_gamma|)``); with a constant friction and speed it never binds.
 """
 from __future__ import annotations
 
@@ -34,10 +41,13 @@ class ReferenceModel:
         Sample period [s] (lags discretised exactly).
     mu : float
         Road friction used for the yaw-rate limit [-].
+    hold_limit : bool
+        Keep the lagged references within the friction limit too (module docstring).
     """
 
-    def __init__(self, model: BicycleModel, tau_beta: float, tau_gamma: float, Ts: float, mu: float):
-        self.model, self.mu = model, mu
+    def __init__(self, model: BicycleModel, tau_beta: float, tau_gamma: float, Ts: float, mu: float,
+                 hold_limit: bool = False):
+        self.model, self.mu, self.hold_limit = model, mu, hold_limit
         self._a_beta = math.exp(-Ts / tau_beta) if tau_beta > 0 else 0.0
         self._a_gamma = math.exp(-Ts / tau_gamma) if tau_gamma > 0 else 0.0
         self.reset()
@@ -61,7 +71,9 @@ class ReferenceModel:
     def run(self, delta, vx) -> tuple:
         """The references of a whole run from rest (:meth:`reset`): :meth:`step` over the samples of the arrays
         ``delta`` [rad] and ``vx`` [m/s], vectorised (the same operations, the same doubles); returns the arrays
-        ``(beta_ref, gamma_ref)``."""
+        ``(beta_ref, gamma_ref)``.  Not with ``hold_limit``, whose clip feeds back into the lags."""
+        if self.hold_limit:
+            raise ValueError("a held friction limit feeds back into the lags: step the references instead")
         import numpy as np
         from scipy.signal import lfilter
 
@@ -74,7 +86,14 @@ class ReferenceModel:
 
     def step(self, delta: float, vx: float) -> tuple[float, float]:
         """Advance the lags by one sample; returns ``(beta_ref, gamma_ref)``."""
-        beta, gamma = self.targets(delta, vx)
-        self.beta = self._a_beta * self.beta + (1.0 - self._a_beta) * beta       # eq 21 lag
-        self.gamma = self._a_gamma * self.gamma + (1.0 - self._a_gamma) * gamma  # eq 22 lag
-        return self.beta, self.gamma
+        k_beta, k_gamma = self.model.steady_state_gains(vx)          # targets(), with the bound kept at hand
+        lim = self.mu * GRAVITY / (vx * abs(k_gamma))
+        clipped = lim if delta > lim else (-lim if delta < -lim else delta)
+        beta = self._a_beta * self.beta + (1.0 - self._a_beta) * (k_beta * clipped)       # eq 21 lag
+        gamma = self._a_gamma * self.gamma + (1.0 - self._a_gamma) * (k_gamma * clipped)  # eq 22 lag
+        if self.hold_limit:                                           # the targets' bounds now
+            b_max, g_max = abs(k_beta) * lim, abs(k_gamma) * lim
+            beta = b_max if beta > b_max else (-b_max if beta < -b_max else beta)
+            gamma = g_max if gamma > g_max else (-g_max if gamma < -g_max else gamma)
+        self.beta, self.gamma = beta, gamma
+        return beta, gamma
