@@ -643,6 +643,11 @@ def test_lqr_dead_band_band_limited_sideslip_feedback_sideslip_first_and_limiter
     _hold(esc, 50, vx_hat=20.0, beta_hat=beta)
     assert ctl.beta_limit == esc.beta_limit and esc.outputs()[4] == pytest.approx(-10.0 * esc.vehicle.I_zz * 0.02)
     assert fb_lim - _feedback(beta, gamma_ref)[0] == pytest.approx(esc.outputs()[4])
+    # its bound at a multiple of atan(0.02 mu g): half of it, the limiter acts on the sideslip beyond the half
+    fb_half, *_, ctl = _feedback(beta, gamma_ref, k_beta=10.0, beta_limit_scale=0.5)
+    assert ctl.beta_limit == 0.5 * sideslip_limit(1.0)
+    assert fb_half - _feedback(beta, gamma_ref)[0] == pytest.approx(
+        -10.0 * ctl.vehicle.I_zz * (0.5 * sideslip_limit(1.0) + 0.02))
 
 
 def test_lqr_sideslip_feedback_within_the_band_and_beyond_it_only_turning_the_car_back():

@@ -50,8 +50,8 @@ this module turns it into the command the motors get:
   ``K_beta (|beta_hat| - beta_limit) sign(beta_hat)``, ``K_beta = k_beta I_zz``, weighted like the sideslip
   feedback (a car sliding out of a left turn has ``beta < 0`` and needs a negative moment).  ``beta_limit = 0``
   takes ``atan(0.02 mu g)`` on the design's friction (11 deg on dry asphalt, 3.4 deg on snow), a sideslip bound
-  common in the DYC literature (:func:`sideslip_limit`).  The baseline ESC's second part; the LQR adds it to its
-  feedback when switched on;
+  common in the DYC literature (:func:`sideslip_limit`), times ``beta_limit_scale`` (1: the literature's bound).
+  The baseline ESC's second part; the LQR adds it to its feedback when switched on;
 * **yaw-rate integral** (:meth:`YawMomentController._integrate`): the integral of the yaw-rate error beyond the
   dead band, with conditional integration (it does not grow while the command is saturated in the direction of
   the error) and bleeding off once the error is back inside the dead band (ESC releases when the car is back on
@@ -121,8 +121,10 @@ class YawMomentConfig(VehicleConfig):
                             "alone (beta_std_ref)", choices=(0, 1))
     deadband: float = param(0.0, "AngularVelocity", "Yaw-rate error the controller tolerates (dead band; 0: none)",
                             ge=0, le=1)
-    beta_limit: float = param(0.0, "Angle", "Sideslip beyond which the limiter acts (0: atan(0.02 mu g))", ge=0,
-                              le=0.5)
+    beta_limit: float = param(0.0, "Angle", "Sideslip beyond which the limiter acts (0: beta_limit_scale "
+                              "atan(0.02 mu g))", ge=0, le=0.5)
+    beta_limit_scale: float = param(1.0, "Dimensionless", "Multiple of atan(0.02 mu g) beyond which the limiter "
+                                    "acts when beta_limit is 0", ge=0.2, le=2.0)
     k_beta: float = param(0.0, "IntegralGain", "Sideslip-limiter gain: K_beta = k_beta I_zz (0: no limiter)", ge=0,
                           le=1.0e4)
 
@@ -195,7 +197,7 @@ class YawMomentController(SampledModel):
         self._dmz = cfg.Mz_rate_max * self.Ts
         self._k_offset = self.Ts / cfg.t_steer_offset if cfg.t_steer_offset > 0 else 0.0
         self.K_beta = cfg.k_beta * self.vehicle.I_zz
-        self.beta_limit = cfg.beta_limit if cfg.beta_limit > 0 else sideslip_limit(cfg.mu)
+        self.beta_limit = cfg.beta_limit if cfg.beta_limit > 0 else cfg.beta_limit_scale * sideslip_limit(cfg.mu)
         self.mu_design = cfg.mu                    # the friction the reference and the design follow now
         self.follows_friction = cfg.friction_source == 1
         self._designs: dict[float, dict] = {}      # grid friction -> its design (friction_source = 1)
@@ -205,7 +207,7 @@ class YawMomentController(SampledModel):
         ``beta_limit`` is given, its sideslip bound; a subclass adds its law's design)."""
         design = {"model": BicycleModel.from_vehicle(self.vehicle, mu, nominal=True)}
         if not self.config.beta_limit > 0:
-            design["beta_limit"] = sideslip_limit(mu)
+            design["beta_limit"] = self.config.beta_limit_scale * sideslip_limit(mu)
         return design
 
     def _follow_friction(self, mu_hat: float) -> None:

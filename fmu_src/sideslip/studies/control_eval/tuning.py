@@ -78,6 +78,7 @@ SEARCH_SPACE = {
     "deadband": ("float", 0.0, 0.06),
     "beta_feedback": ("int", 0, 2),
     "k_beta": ("float", 0.0, 40.0),
+    "beta_limit_scale": ("float", 0.4, 1.5),
     "k_integral": ("float", 0.0, 5.0),
     "valid_gate": ("int", 0, 1),
     "beta_std_ref": ("float", 0.0, 0.1),
@@ -87,9 +88,9 @@ SEARCH_SPACE = {
 weights and their friction schedule, its reference lags, the speed schedule's fade-in, the friction schedule
 (follow ``mu_hat`` down to ``mu_floor``, or not), the command shaping (rate limit, band-limited
 feed-forward) and the nonlinear parts (yaw-rate dead band, sideslip feedback beyond its reference only, sideslip
-first, sideslip limiter, yaw-rate integral: :mod:`sideslip.control.dyc`) and the trust in an estimator (its
-``valid`` fading the sideslip feedback or not, the feedback weighted by its ``beta_hat_std``: no effect on the
-truth).  ``q_N`` stays 1: the gains depend only on the weights' ratios."""
+first, sideslip limiter and its bound, yaw-rate integral: :mod:`sideslip.control.dyc`) and the trust in an
+estimator (its ``valid`` fading the sideslip feedback or not, the feedback weighted by its ``beta_hat_std``: no
+effect on the truth).  ``q_N`` stays 1: the gains depend only on the weights' ratios."""
 
 OBJECTIVES = ("rms_yaw_rate_error_deg_s", "effort_kNms", "max_abs_beta_deg")
 """What the study minimises, each the mean over a set's runs: yaw-rate tracking [deg/s], effort
