@@ -18,7 +18,8 @@ A study (:func:`run_study`):
    source) on the development set, and chooses what the LQR has to earn against the ESC: among the points with
    at most :data:`EFFORT_CAP` times the ESC's effort, at least as many FMVSS 126 runs yaw-stable and within the
    constraints (:func:`~sideslip.studies.control_eval.tuning.constraints`: the straight drive quiet, the FMVSS
-   runs as responsive as the ESC's), the smallest sum of yaw-rate error and max ``|beta|``, each over the ESC's
+   runs as responsive as the ESC's, within its standard error, and with no more sideslip), the smallest sum of
+   yaw-rate error and max ``|beta|``, each over the ESC's
    (without such a point, the smallest sum of all three ratios among those keeping the FMVSS 126 runs stable and
    within the constraints, or failing that stable);
 3. writes the chosen point as a parameter file (``chosen.json``, ``chosen.ssv``:

@@ -15,13 +15,16 @@ runs on the SUV at mu 0.8, seeds 0 and 1), which is the study's test set:
   spin-out braking in a turn on ice (small car), FMVSS 126 at 4A on mu 0.8 (Sonata) and a straight drive (small
   car, 14 -> 26 m/s).
 
-The objectives (:data:`OBJECTIVES`) are means over the maneuvers.  Three constraints (:func:`constraints`), which
+The objectives (:data:`OBJECTIVES`) are means over the maneuvers.  Four constraints (:func:`constraints`), which
 the sampler is told of (Optuna's trial constraints: the samplers and the Pareto front prefer the points within
 them) and the choice keeps: the straight drives' ``RMS Mz_cmd <= STRAIGHT_RMS_MAX`` (the sensors' noise through the
 command on a straight road); FMVSS 126's responsiveness - the mean lateral displacement 1.07 s after the
-beginning of steer of the FMVSS runs at 5A and more no smaller than the baseline ESC's on the same runs (the ESC
-passes the criterion where the LQR is to; on mu 0.5 no controller reaches its 1.83 m, so the ESC is the bar); and
-FMVSS 126's yaw stability - no more of the FMVSS runs failing it than the ESC fails.
+beginning of steer of the FMVSS runs at 5A and more no smaller than the baseline ESC's on the same runs less that
+mean's standard error (the ESC passes the criterion where the LQR is to; on mu 0.5 no controller reaches its
+1.83 m, so the ESC is the bar, measured on a few runs);
+FMVSS 126's yaw stability - no more of the FMVSS runs failing it than the ESC fails; and FMVSS 126's sideslip - the
+mean max ``|beta|`` of the FMVSS runs no larger than the ESC's (the means over every maneuver are dominated by the
+spin-outs, where the two differ by far more).
 
 All under ``sensors+mismatch`` (sensor errors; the plant on Magic Formula tires and the controller's vehicle
 perturbed from the plant's).  A run's figures are those of the control evaluation
@@ -141,17 +144,22 @@ def objectives(rows: list[dict]) -> dict:
     """The :data:`OBJECTIVES` and the study's other figures of one point's runs (means over the maneuvers unless
     named): ``worst_max_abs_beta_deg``, ``saturated_pct``, ``rms_dMz_dt``, ``fmvss_stable`` (FMVSS runs
     yaw-stable), ``fmvss_runs``, ``fmvss_lateral_m`` (the mean lateral displacement of the FMVSS runs at 5A and
-    more, 0 without one), ``straight_rms_Mz_cmd`` (the largest over the straight drives, 0 without one),
-    ``sim_seconds`` (every run)."""
+    more, 0 without one) and its standard error ``fmvss_lateral_se_m`` (the runs' std over the root of their number,
+    0 with fewer than two), ``fmvss_max_abs_beta_deg`` (the mean max ``|beta|`` of the FMVSS runs, 0 without one),
+    ``straight_rms_Mz_cmd`` (the largest over the straight drives, 0 without one), ``sim_seconds`` (every run)."""
     moving = [r for r in rows if not r.get("straight")]
     mean = lambda key: float(np.mean([r[key] for r in moving]))          # noqa: E731
     fmvss = [r["yaw_stable"] for r in moving if "yaw_stable" in r]
+    lateral = [r["lateral_1p07s"] for r in moving if "lateral_1p07s" in r]
     out = {"rms_yaw_rate_error_deg_s": mean("rms_yaw_rate_error_deg_s"), "effort_kNms": mean("effort_Nms") / 1e3,
            "max_abs_beta_deg": mean("max_abs_beta_deg"),
            "worst_max_abs_beta_deg": float(max(r["max_abs_beta_deg"] for r in moving)),
            "saturated_pct": mean("saturated_pct"), "rms_dMz_dt": mean("rms_dMz_dt"),
            "fmvss_stable": int(sum(fmvss)), "fmvss_runs": len(fmvss),
-           "fmvss_lateral_m": float(np.mean([r["lateral_1p07s"] for r in moving if "lateral_1p07s" in r] or [0.0])),
+           "fmvss_lateral_m": float(np.mean(lateral or [0.0])),
+           "fmvss_lateral_se_m": float(np.std(lateral, ddof=1) / math.sqrt(len(lateral))) if len(lateral) > 1 else 0.0,
+           "fmvss_max_abs_beta_deg": float(np.mean([r["max_abs_beta_deg"] for r in moving if "yaw_stable" in r]
+                                                   or [0.0])),
            "straight_rms_Mz_cmd": float(max((r["rms_Mz_cmd"] for r in rows if r.get("straight")), default=0.0)),
            "sim_seconds": float(sum(r["sim_seconds"] for r in rows))}
     if not all(math.isfinite(out[k]) for k in (*OBJECTIVES, "straight_rms_Mz_cmd")):
@@ -162,9 +170,10 @@ def objectives(rows: list[dict]) -> dict:
 def constraints(figures: dict, esc: dict | None = None) -> dict:
     """The study's constraints of a point's :func:`objectives` (feasible when none is above 0): ``straight``
     = ``straight_rms_Mz_cmd - STRAIGHT_RMS_MAX`` [N m], ``responsive`` = the ESC's ``fmvss_lateral_m`` (its
-    :func:`objectives` on the same runs, ``esc``) less the point's [m] and ``stable`` = the ESC's
-    ``fmvss_stable`` less the point's [runs]; a figure not measured (no ESC, no such run, a point of an older
-    study) constrains nothing."""
+    :func:`objectives` on the same runs, ``esc``) less its standard error and the point's [m] (a bar measured on a
+    few runs, whose seeds alone move it by 1-3 cm), ``stable`` = the ESC's ``fmvss_stable`` less the point's [runs]
+    and ``sideslip`` = the point's ``fmvss_max_abs_beta_deg`` less the
+    ESC's [deg]; a figure not measured (no ESC, no such run, a point of an older study) constrains nothing."""
     esc = esc or {}
 
     def below(key):
@@ -172,4 +181,5 @@ def constraints(figures: dict, esc: dict | None = None) -> dict:
         return bar - mine if mine is not None and bar is not None else 0.0
 
     return {"straight": figures.get("straight_rms_Mz_cmd", 0.0) - STRAIGHT_RMS_MAX,
-            "responsive": below("fmvss_lateral_m"), "stable": float(below("fmvss_stable"))}
+            "responsive": below("fmvss_lateral_m") - esc.get("fmvss_lateral_se_m", 0.0),
+            "stable": float(below("fmvss_stable")), "sideslip": -below("fmvss_max_abs_beta_deg")}
