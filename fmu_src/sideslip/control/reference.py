@@ -13,8 +13,7 @@ sideslip of a turn the road cannot give.
 
 Held limit (``hold_limit``, a controller following a friction estimate): the clip above acts on the
 targets, before the lags, so when the friction falls (or the speed rises) faster than ``tau_gamma`` the
-lagged references stay above what the road can turn for a while - on a road whose friction drops from
-0.9 to 0.3 within 0.4 s in a slalom, 3-7 deg/s above it for about 0.1 s.  Held, each lagged reference is
+lagged references stay above what the road can turn for a few tenths of a second.  Held, each lagged reference is
 kept within its own target's bound at the current friction and speed (``|gamma| <= mu g / v_x``,
 ``|beta| <= |k_beta| mu g / (v_x |k_gamma|)``); with a constant friction and speed it never binds.
 """
@@ -61,13 +60,6 @@ class ReferenceModel:
         lim = self.mu * GRAVITY / (vx * abs(self.model.steady_state_gains(vx)[1]))
         return lim if delta > lim else (-lim if delta < -lim else delta)
 
-    def targets(self, delta: float, vx: float) -> tuple[float, float]:
-        """Steady-state ``(beta, gamma)`` targets [rad, rad/s] for steering ``delta`` at ``vx``."""
-        k_beta, k_gamma = self.model.steady_state_gains(vx)          # eqs 21-22 without the lags
-        lim = self.mu * GRAVITY / (vx * abs(k_gamma))                 # limited_steer, with the gains at hand
-        delta = lim if delta > lim else (-lim if delta < -lim else delta)
-        return k_beta * delta, k_gamma * delta
-
     def run(self, delta, vx) -> tuple:
         """The references of a whole run from rest (:meth:`reset`): :meth:`step` over the samples of the arrays
         ``delta`` [rad] and ``vx`` [m/s], vectorised (the same operations, the same doubles); returns the arrays
@@ -86,8 +78,8 @@ class ReferenceModel:
 
     def step(self, delta: float, vx: float) -> tuple[float, float]:
         """Advance the lags by one sample; returns ``(beta_ref, gamma_ref)``."""
-        k_beta, k_gamma = self.model.steady_state_gains(vx)          # targets(), with the bound kept at hand
-        lim = self.mu * GRAVITY / (vx * abs(k_gamma))
+        k_beta, k_gamma = self.model.steady_state_gains(vx)          # eqs 21-22 without the lags
+        lim = self.mu * GRAVITY / (vx * abs(k_gamma))                 # limited_steer, with the gains at hand
         clipped = lim if delta > lim else (-lim if delta < -lim else delta)
         beta = self._a_beta * self.beta + (1.0 - self._a_beta) * (k_beta * clipped)       # eq 21 lag
         gamma = self._a_gamma * self.gamma + (1.0 - self._a_gamma) * (k_gamma * clipped)  # eq 22 lag

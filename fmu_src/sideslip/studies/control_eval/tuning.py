@@ -21,10 +21,9 @@ them) and the choice keeps: the straight drives' ``RMS Mz_cmd <= STRAIGHT_RMS_MA
 command on a straight road); FMVSS 126's responsiveness - the mean lateral displacement 1.07 s after the
 beginning of steer of the FMVSS runs at 5A and more no smaller than the baseline ESC's on the same runs less that
 mean's standard error (the ESC passes the criterion where the LQR is to; on mu 0.5 no controller reaches its
-1.83 m, so the ESC is the bar, measured on a few runs);
-FMVSS 126's yaw stability - no more of the FMVSS runs failing it than the ESC fails; and FMVSS 126's sideslip - the
-mean max ``|beta|`` of the FMVSS runs no larger than the ESC's (the means over every maneuver are dominated by the
-spin-outs, where the two differ by far more).
+1.83 m, so the ESC is the bar, measured on a few runs); FMVSS 126's yaw stability - no more of the FMVSS runs
+failing it than the ESC fails; and FMVSS 126's sideslip - the mean max ``|beta|`` of the FMVSS runs no larger than
+the ESC's (the means over every maneuver are dominated by the spin-outs, where the two differ by far more).
 
 All under ``sensors+mismatch`` (sensor errors; the plant on Magic Formula tires and the controller's vehicle
 perturbed from the plant's).  A run's figures are those of the control evaluation
