@@ -190,6 +190,27 @@ def test_in_vehicle_mode_by_parameter_equals_gps_valid_false(slalom):
     assert m["rms"] < 0.1 and m["valid"] > 0.9      # deg: 0.03 measured
 
 
+def test_locked_wheels_keep_the_estimate_valid_while_a_consistent_gnss_observes_the_speed(slalom):
+    """Wheels that lock at speed (their measured speed 0.2 rad/s for 2 s of the slalom at 15 m/s) say nothing of
+    the speed: with GNSS the estimate keeps its accuracy and stays valid; without GNSS (in-vehicle mode), or with
+    ``locked_wheels_valid`` false, it is not valid while they lock."""
+    setup, rec = slalom
+    t = rec.time
+    lock = (t >= 10.0) & (t < 12.0)
+    signals = dict(rec.signals)
+    for name in ("omega_fl_m", "omega_fr_m", "omega_rl_m", "omega_rr_m"):
+        signals[name] = np.where(lock, 0.2, signals[name])
+    locked = B.Recording(t, signals, rec.reference, "locked wheels")
+    _, res = _run(setup, locked)
+    err = res["beta_hat"] - rec.reference["beta"]
+    assert res["valid"][lock].all()
+    worst = np.abs(err[lock]).max()
+    assert worst < 0.1 * RAD_PER_DEG and worst < 2.0 * res["beta_hat_std"][lock].min()
+    for params in ({"locked_wheels_valid": False}, {"use_gnss": False}):
+        _, off = _run(setup, locked, **params)
+        assert not off["valid"][lock].any() and off["valid"][(t > 8.0) & (t < 10.0)].all()
+
+
 def test_delayed_fixes_extrapolated_or_rerun_give_the_same_estimate(slalom):
     """The default extrapolates a delayed fix to now (Larsen); re-running the filter from the fix's sample is the
     exact, 1.5 times as costly reference (0.0005 deg RMS apart measured)."""

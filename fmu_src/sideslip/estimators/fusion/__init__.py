@@ -40,7 +40,8 @@ noise, so the reported std grows; when GNSS returns after the heading has become
 
 ``beta_hat_std`` is the first-order std of ``atan2(v_y, v_x)`` from the covariance, inflated by the GNSS
 innovations' consistency (:class:`~sideslip.estimators.kalman.InnovationMonitor`); ``valid`` is false
-below ``v_min``, before the heading is initialised in GNSS mode, while the GNSS innovations are
+below ``v_min`` (the estimate's speed, and the wheels' unless a consistent GNSS velocity observes the speed while
+they lock: ``locked_wheels_valid``), before the heading is initialised in GNSS mode, while the GNSS innovations are
 inconsistent and above ``valid_std_max``, and waits ``valid_hold`` after any break
 (:class:`~sideslip.estimators.base.ValidityGate`).  Results and limits: ``docs/estimator.md``.
 """

@@ -275,7 +275,9 @@ class SideslipFusion(Estimator):
         if gnss and self._heading_known:
             std *= self._gps_nis.inflation()
         self.beta_std = std
-        self.valid = (vx > cfg.v_min and vw > cfg.v_min and (self._heading_known or not gnss)
+        # locked wheels say nothing of the speed; a consistent GNSS velocity still does
+        rolling = vw > cfg.v_min or (cfg.locked_wheels_valid and gnss)
+        self.valid = (vx > cfg.v_min and rolling and (self._heading_known or not gnss)
                       and (not gnss or self._gps_nis.consistent))
         self._extra_values = self._compute_extras()
 
