@@ -154,7 +154,7 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
     mode_switch: float = param(0.01, "Dimensionless", "IMM: probability per sample of switching filter", gt=0, lt=0.5)
     # validity
     locked_wheels_valid: bool = param(True, "Dimensionless", "Keep the estimate valid while the wheels lock (their "
-                                      "speed below v_min at the estimate's speed above it) as long as a consistent "
+                                      "speed within +-v_min, the estimate's above v_min) as long as a consistent "
                                       "GNSS velocity observes the speed; false: valid needs the wheels' speed above "
                                       "v_min")
     valid_std_max: float = valid_std_max_param(0.03)

@@ -275,8 +275,9 @@ class SideslipFusion(Estimator):
         if gnss and self._heading_known:
             std *= self._gps_nis.inflation()
         self.beta_std = std
-        # locked wheels say nothing of the speed; a consistent GNSS velocity still does
-        rolling = vw > cfg.v_min or (cfg.locked_wheels_valid and gnss)
+        # locked wheels (their speed within +-v_min) say nothing of the speed; a consistent GNSS velocity still
+        # does (wheels turning backwards are a car the model does not describe)
+        rolling = vw > cfg.v_min or (cfg.locked_wheels_valid and gnss and vw > -cfg.v_min)
         self.valid = (vx > cfg.v_min and rolling and (self._heading_known or not gnss)
                       and (not gnss or self._gps_nis.consistent))
         self._extra_values = self._compute_extras()
