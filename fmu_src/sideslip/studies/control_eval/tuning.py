@@ -170,7 +170,7 @@ def constraints(figures: dict, esc: dict | None = None) -> dict:
     """The study's constraints of a point's :func:`objectives` (feasible when none is above 0): ``straight``
     = ``straight_rms_Mz_cmd - STRAIGHT_RMS_MAX`` [N m], ``responsive`` = the ESC's ``fmvss_lateral_m`` (its
     :func:`objectives` on the same runs, ``esc``) less its standard error and the point's [m] (a bar measured on a
-    few runs, whose seeds alone move it by 1-3 cm), ``stable`` = the ESC's ``fmvss_stable`` less the point's [runs]
+    few runs, which the seeds alone move), ``stable`` = the ESC's ``fmvss_stable`` less the point's [runs]
     and ``sideslip`` = the point's ``fmvss_max_abs_beta_deg`` less the
     ESC's [deg]; a figure not measured (no ESC, no such run, a point of an older study) constrains nothing."""
     esc = esc or {}
