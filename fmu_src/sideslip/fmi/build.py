@@ -15,8 +15,8 @@ mingw-w64 cross compiler (``x86_64-w64-mingw32-gcc``, or ``$SIDESLIP_MINGW_CC``)
 itself, see the shim's comment) with pythonfmu's DLL beside it as ``pythonfmu_export.dll``;
 without it pythonfmu's stock win64 binary is kept.
 
-Every FMU carries the plant's compiled step (:mod:`sideslip.plant.kernel`) for the platforms whose compiler is
-there, in its package's ``plant/native/<platform>/``.
+Every FMU carries the plant's and the driver's compiled steps (:mod:`sideslip.plant.kernel`) for the platforms
+whose compiler is there, in its package's ``plant/native/<platform>/``.
 
 Builds are cached: an FMU is rebuilt when the hash of the files it carries changes.
 
@@ -52,7 +52,7 @@ DEFAULT_OUT = Path(os.environ.get("SIDESLIP_FMU_DIR") or Path("build") / "fmus")
 """Where the FMUs are built and found by default: ``$SIDESLIP_FMU_DIR``, else ``build/fmus`` under the working
 folder (a notebook or a script in another folder can share one build through the variable)."""
 SHIM_SOURCE = PACKAGE_DIR / "fmi" / "native" / "fmi2_status_shim.c"
-KERNEL_SOURCE = PACKAGE_DIR / "plant" / "native" / "plant_kernel.c"
+KERNEL_SOURCES = tuple(PACKAGE_DIR / "plant" / "native" / f"{model}_kernel.c" for model in ("plant", "driver"))
 """The plant's compiled step (:mod:`sideslip.plant.kernel`), built for each platform into the FMUs that run it."""
 KERNEL_MODULE = PACKAGE_DIR / "plant" / "kernel.py"
 FP_FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
@@ -152,8 +152,8 @@ def compile_shim(work: Path, guid: str = "", platform: str = "linux64") -> tuple
 
 
 def compile_kernel(work: Path, platform: str = "linux64") -> Path | None:
-    """Compile the plant's step (:data:`KERNEL_SOURCE`) for a platform into ``work``; None without its compiler
-    (the plant then runs its Python reference there)."""
+    """Compile the plant's and the driver's steps (:data:`KERNEL_SOURCES`, one binary) for a platform into
+    ``work``; None without its compiler (the plant and the driver then run their Python reference there)."""
     from ..plant.kernel import LIBRARY_NAME
 
     cc = _find_cc(platform)
@@ -161,8 +161,8 @@ def compile_kernel(work: Path, platform: str = "linux64") -> Path | None:
         return None
     out = work / f"{LIBRARY_NAME}{PLATFORMS[platform]}"
     flags = ["-fPIC", "-fvisibility=hidden"] if platform == "linux64" else ["-s", "-static-libgcc"]
-    _compile([cc, "-shared", *FP_FLAGS, *flags, str(KERNEL_SOURCE), "-o", str(out), "-lm"],
-             f"the plant kernel ({platform})")
+    _compile([cc, "-shared", *FP_FLAGS, *flags, *map(str, KERNEL_SOURCES), "-o", str(out), "-lm"],
+             f"the plant and driver kernel ({platform})")
     return out
 
 
@@ -178,7 +178,7 @@ def _source_hash(name: str, shims: tuple[str, ...]) -> str:
     spec = fmu_spec(name)
     h = hashlib.sha256()
     bundled = bundled_files(spec)
-    files = [wrapper_script(spec), SHIM_SOURCE, *bundled, *([KERNEL_SOURCE] if KERNEL_MODULE in bundled else [])]
+    files = [wrapper_script(spec), SHIM_SOURCE, *bundled, *(KERNEL_SOURCES if KERNEL_MODULE in bundled else ())]
     for p in files:
         h.update(str(p.relative_to(PACKAGE_DIR.parent) if p.is_relative_to(PACKAGE_DIR.parent) else p.name)
                  .encode())

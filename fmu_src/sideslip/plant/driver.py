@@ -11,6 +11,10 @@ saturated, integrator frozen while saturated; on paths the target is capped by a
 speed profile ``sqrt(a_lat_max / |kappa|)`` propagated backwards with the braking limit.
 At standstill with zero target the brake holds the car.
 
+The step runs compiled (:mod:`sideslip.plant.kernel`, the same doubles) where this platform's binary is present
+and ``compiled`` is 1: the path follower and the speed controller in C, the maneuver's schedules (target speed,
+open-loop handwheel, environment) in Python; this module's Python is the reference it is checked against.
+
 The driver also emits the scenario environment: friction ``mu``, bank angle and wind
 force/moment as time tables (the plant takes them as inputs); a crowned road (``road_crown``) adds
 a crossfall that changes side where the car crosses the crown line, as in a lane change.
@@ -24,7 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from math import atan, atan2, cos, hypot, sin
+from math import atan, atan2, cos, sin, sqrt
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,6 +38,7 @@ from ..params import ParameterError, ParamGroup, check, format_assignments, para
 from ..constants import GRAVITY
 from ..signals import DRIVER_INPUTS, DRIVER_OUTPUTS
 from ..vehicles import VehicleConfig, VehicleParams
+from . import kernel
 from .maneuvers import MANEUVERS, TimeTable, parse_maneuver
 
 __all__ = ["DriverConfig", "Driver", "ConstantEnvironment", "MANEUVER_KINDS"]
@@ -83,6 +88,8 @@ class DriverConfig(VehicleConfig):
     maneuver_kind: int = param(0, "Dimensionless", "Maneuver from numeric parameters: 0 the String 'maneuver'; "
                                + ", ".join(f"{i} {n} ({n}.*)" for i, n in enumerate(MANEUVER_KINDS, 1)),
                                ge=0, le=len(MANEUVER_KINDS))
+    compiled: int = param(1, "Dimensionless", "Step computation: 1 compiled C where the FMU carries it for this "
+                          "platform (the same doubles, faster), 0 the pure-Python reference", choices=(0, 1))
 
     def __post_init__(self):
         check(self)
@@ -176,9 +183,23 @@ class Driver(Model):
         # the environment when none of its tables changes in time: _pack then skips four table look-ups
         self._env = tuple(table(0.0) for table in tables) if all(len(t.points) == 1 for t in tables) else None
         self._rate = cfg.steer_rate_max / v.steering_ratio          # handwheel rate at the road wheels [rad/s]
-        self._roll_force = v.m * GRAVITY * v.f_rr                    # rolling resistance [N]
-        self._drag = 0.5 * v.rho_air * v.CdA                         # [kg/m]
         self._two_l = 2.0 * v.l
+        plan = self.plan
+        # the speed controller's: gains, rolling resistance [N], drag [kg/m], mass, force bounds, radius, times
+        self._speed_law = (cfg.speed_kp, cfg.speed_ki, v.m * GRAVITY * v.f_rr, 0.5 * v.rho_air * v.CdA, v.m,
+                           v.m * -cfg.decel_max, v.m * cfg.accel_max, v.R_w, plan.brake_only_from, plan.coast_from)
+        self._native = None                # the compiled step's bound method (an FMU state takes it from a template)
+        if cfg.compiled and kernel.available():
+            law = dict(zip(("kp", "ki", "roll_force", "drag", "m", "f_lo", "f_hi", "radius", "brake_only_from",
+                            "coast_from"), self._speed_law))
+            self._native = kernel.DriverKernel(plan.path, self._vlim, dict(
+                preview_time=cfg.preview_time, preview_min=cfg.preview_min, two_l=self._two_l, rate=self._rate,
+                hold_torque=self._hold_torque(), **law)).step
+
+    @property
+    def compiled(self) -> bool:
+        """Whether the steps run the compiled kernel (:mod:`sideslip.plant.kernel`)."""
+        return self._native is not None
 
     def _curve_speed_profile(self) -> list | None:
         """Speed limit per path sample from curvature, propagated backwards with decel_max."""
@@ -201,7 +222,7 @@ class Driver(Model):
     def __getstate__(self):
         # the plan holds closures and large path arrays: rebuild it from the config instead
         state = self.__dict__.copy()
-        for key in ("maneuver", "plan", "_vlim"):
+        for key in ("maneuver", "plan", "_vlim", "_native"):    # (ctypes buffers do not pickle either)
             state.pop(key, None)
         return state
 
@@ -258,7 +279,9 @@ class Driver(Model):
         dx, dy = tx - px, ty - py
         c, s = cos(yaw), sin(yaw)
         lx, ly = c * dx + s * dy, -s * dx + c * dy
-        return atan(self._two_l * sin(atan2(ly, lx)) / hypot(lx, ly))
+        # sqrt of the sum of squares, not math.hypot, whose own algorithm C's libm does not share: the compiled
+        # step gives the same doubles
+        return atan(self._two_l * sin(atan2(ly, lx)) / sqrt(lx * lx + ly * ly))
 
     def step(self, h: float, vx: float, X: float, Y: float, yaw: float) -> None:
         """Advance by ``h`` [s] (> 0); arguments are the latest plant truth (``vx``, position, yaw)."""
@@ -268,11 +291,19 @@ class Driver(Model):
             self._crown = self._crown_bank(X, Y)
 
         # ---- steering
-        if plan.steer_sw is not None and t >= plan.t_open:
+        open_loop = plan.steer_sw is not None and t >= plan.t_open
+        if open_loop:
             if self._delta_hold is None:
                 self._delta_hold = self._delta
             target = self._delta_hold + plan.steer_sw(t) / self.vehicle.steering_ratio
-        else:
+        if self._native is not None:                     # the rest of the step, compiled
+            idx, self._delta, self._integ, self._v_prev, t_drive, t_brake, v_ref = self._native(
+                h, t, vx, X, Y, yaw, open_loop, target if open_loop else 0.0, plan.v_ref(t), self._idx, self._delta,
+                self._integ, self._v_prev)
+            self._idx = int(idx)
+            self._out = self._pack(t, self._delta, t_drive, t_brake, v_ref)
+            return
+        if not open_loop:
             target = self._pure_pursuit(vx, X, Y, yaw)
         max_step = self._rate * h
         change = target - self._delta
@@ -293,17 +324,17 @@ class Driver(Model):
             self._integ = 0.0
             self._out = self._pack(t, delta, 0.0, self._hold_torque(), v_ref)
             return
+        kp, ki, roll_force, drag, m, f_lo, f_hi, radius, brake_only_from, coast_from = self._speed_law
         err = v_ref - vx
-        a_cmd = dv_ref + cfg.speed_kp * err + cfg.speed_ki * self._integ
-        f_res = self._roll_force * (1.0 if vx >= 0 else -1.0) + self._drag * vx * speed
-        a_hi = 0.0 if t >= plan.brake_only_from else cfg.accel_max
-        m = self.vehicle.m
+        a_cmd = dv_ref + kp * err + ki * self._integ
+        f_res = roll_force * (1.0 if vx >= 0 else -1.0) + drag * vx * speed
+        if t >= brake_only_from:
+            f_hi = 0.0
         force = m * a_cmd + f_res
-        f_lo, f_hi = m * -cfg.decel_max, m * a_hi
         if f_lo < force < f_hi:
             self._integ += err * h                       # no wind-up while saturated
         else:
             force = f_lo if force <= f_lo else f_hi
-        torque = force * self.vehicle.R_w if t < plan.coast_from else 0.0
+        torque = force * radius if t < coast_from else 0.0
         # max(torque, 0.0) and max(-torque, 0.0), signed zeros included
         self._out = self._pack(t, delta, 0.0 if 0.0 > torque else torque, 0.0 if 0.0 > -torque else -torque, v_ref)

@@ -1,36 +1,39 @@
-"""The plant's communication step compiled from C (``native/plant_kernel.c``), loaded with ctypes.
+"""The plant's and the driver's steps compiled from C (``native/plant_kernel.c``, ``native/driver_kernel.c``),
+loaded with ctypes.
 
-The pure-Python plant (:mod:`sideslip.plant.dynamics`, :class:`~sideslip.plant.vehicle.VehiclePlant`) is the
-reference; the C file repeats its arithmetic operation for operation, so both give the same doubles on one
-platform (``tests/test_plant_kernel.py`` checks them equal to 1e-12, and bit-identical on Linux x86-64); the
-cost of each is in the Performance page.
+The pure-Python models (:mod:`sideslip.plant.dynamics` and :class:`~sideslip.plant.vehicle.VehiclePlant`,
+:class:`~sideslip.plant.driver.Driver`) are the reference; the C files repeat their arithmetic operation for
+operation, so both give the same doubles on one platform (``tests/test_plant_kernel.py`` and
+``tests/test_driver_kernel.py`` check them equal to 1e-12, and bit-identical on Linux x86-64); the cost of each is
+in the Performance page.
 
 Plain C without the Python API, so one binary serves every Python version; ctypes, not a C extension, because
 the win64 FMUs are cross-compiled without a Windows Python to link against.  Where the binary comes from:
 
-* inside an FMU: ``native/<platform>/sideslip_plant_kernel.so`` / ``.dll`` next to this module, compiled by the
-  FMU build for linux64 and win64 (:func:`sideslip.fmi.build.compile_kernel`);
+* inside an FMU: ``native/<platform>/sideslip_plant_kernel.so`` / ``.dll`` next to this module (both C files in one
+  binary), compiled by the FMU build for linux64 and win64 (:func:`sideslip.fmi.build.compile_kernel`);
 * the library: the ``sideslip.plant._plant_kernel`` binary setuptools compiles at install (``setup.py``).
 
 The binary is loaded when this module is imported, which an FMU does at instantiation: some hosts delete the
 unpacked FMU afterwards.  Without a binary for this platform (no compiler at install, another operating system)
-the plant runs the Python reference and :data:`UNAVAILABLE` says why.
+the plant and the driver run the Python reference and :data:`UNAVAILABLE` says why.
 """
 from __future__ import annotations
 
 import ctypes
 import importlib.machinery
+import struct
 import sys
 from pathlib import Path
 
-__all__ = ["PlantKernel", "available", "UNAVAILABLE", "LIBRARY_NAME", "PLATFORM", "N_STATE", "N_INPUTS",
+__all__ = ["PlantKernel", "DriverKernel", "available", "UNAVAILABLE", "LIBRARY_NAME", "PLATFORM", "N_STATE", "N_INPUTS",
            "N_OUTPUTS"]
 
 LIBRARY_NAME = "sideslip_plant_kernel"
 """File name (without extension) of the binary an FMU carries."""
 PLATFORM = {"linux": "linux64", "win32": "win64"}.get(sys.platform)
 """This machine's FMI platform folder, where an FMU's kernel is."""
-KERNEL_VERSION = 1
+KERNEL_VERSION = 2
 """Interface version the binary must report (``sideslip_plant_kernel_version``)."""
 N_STATE, N_INPUTS, N_OUTPUTS = 15, 8, 24
 """The kernel's state (the plant's 14 states and the motors' torque difference), inputs and outputs."""
@@ -62,6 +65,8 @@ def _load():
         vec = ctypes.POINTER(ctypes.c_double)
         step.argtypes = [vec, vec, vec, ctypes.c_double, ctypes.c_double, ctypes.c_double, vec]
         step.restype = ctypes.c_int
+        lib.sideslip_driver_step.argtypes = None                 # (byref(plan), io): the fastest ctypes call
+        lib.sideslip_driver_step.restype = None
         return lib, ""
     why = ("; ".join(tried) if tried
            else "no compiled plant kernel for this platform (built at install with a C compiler)")
@@ -137,3 +142,66 @@ class PlantKernel:
         self._in[:] = inputs
         n = self._fn(self._k, state, self._in, caf, car, h, self._out)
         return n, state[:14], state[14], self._out[:]
+
+
+_VEC = ctypes.POINTER(ctypes.c_double)
+
+
+class DriverPlan(ctypes.Structure):
+    """What a driver's compiled steps share: the C ``DriverPlan`` (driver_kernel.c), field for field."""
+
+    _fields_ = [*((name, _VEC) for name in ("x", "y", "s", "ex", "ey", "seg2", "seg", "vlim")),
+                ("n", ctypes.c_int), ("closed", ctypes.c_int),
+                *((name, ctypes.c_double) for name in (
+                    "psi_first", "psi_last", "preview_time", "preview_min", "two_l", "rate", "kp", "ki",
+                    "roll_force", "drag", "m", "f_lo", "f_hi", "radius", "brake_only_from", "coast_from",
+                    "hold_torque"))]
+
+
+DRIVER_IO = 16
+"""Values of one compiled driver step (driver_kernel.c ``IO_*``)."""
+_DRIVER_IN, _DRIVER_OUT = struct.Struct("=13d"), struct.Struct("=7d")
+
+
+class DriverKernel:
+    """The compiled step of one driver: its path and constants, and the buffer the C function reads and writes.
+
+    Parameters
+    ----------
+    path : sideslip.plant.paths.Path
+        The path followed.
+    vlim : list of float or None
+        Curve speed limit per path sample [m/s].
+    constants : dict
+        The other :class:`DriverPlan` fields by name.
+
+    Raises
+    ------
+    RuntimeError
+        Without a binary (:func:`available`), or when the binary's layout is not this module's.
+    """
+
+    def __init__(self, path, vlim, constants: dict):
+        if _LIB is None:
+            raise RuntimeError(UNAVAILABLE)
+        if (_LIB.sideslip_driver_io_size() != DRIVER_IO
+                or _LIB.sideslip_driver_plan_size() != ctypes.sizeof(DriverPlan)):
+            raise RuntimeError("the driver kernel's layout is not this module's")
+        arrays = {name: (ctypes.c_double * len(values))(*values) for name, values in (
+            ("x", path._xl), ("y", path._yl), ("s", path._sl), ("ex", path._ex), ("ey", path._ey),
+            ("seg2", path._seg2), ("seg", path._seg), ("vlim", vlim or ()))}
+        self._arrays = arrays                       # the plan points into them: kept alive with it
+        pointers = {name: ctypes.cast(a, _VEC) if len(a) else None for name, a in arrays.items()}
+        self._plan = DriverPlan(**pointers, n=len(path._xl), closed=int(path.closed),
+                                psi_first=float(path.psi[0]), psi_last=float(path.psi[-1]), **constants)
+        self._ref = ctypes.byref(self._plan)
+        self._io = (ctypes.c_double * DRIVER_IO)()
+        self._fn = _LIB.sideslip_driver_step
+
+    def step(self, *values):
+        """One step: ``h, t, vx, X, Y, yaw, open_loop, target, v_plan, idx, delta, integ, v_prev`` in; returns
+        ``(idx, delta, integ, v_prev, T_drive, T_brake, v_ref)`` (driver_kernel.c, ``Driver.step``)."""
+        io = self._io
+        _DRIVER_IN.pack_into(io, 0, *values)        # (struct moves the doubles faster than ctypes' slices)
+        self._fn(self._ref, io)
+        return _DRIVER_OUT.unpack_from(io, 9 * 8)

@@ -42,6 +42,12 @@ class Path:
         ds = np.gradient(self.s)
         self.kappa = dpsi / ds
         self._xl, self._yl, self._sl = x.tolist(), y.tolist(), self.s.tolist()
+        # each segment's direction, squared length and length (the last one closes a closed path)
+        xl, yl = self._xl, self._yl
+        self._ex = [xl[(a + 1) % len(xl)] - xl[a] for a in range(len(xl))]
+        self._ey = [yl[(a + 1) % len(yl)] - yl[a] for a in range(len(yl))]
+        self._seg2 = [ex * ex + ey * ey for ex, ey in zip(self._ex, self._ey)]
+        self._seg = [math.sqrt(s2) for s2 in self._seg2]
 
     def project(self, px: float, py: float, hint: int = 0) -> tuple[int, float]:
         """Nearest sample index and continuous station of the foot point of ``(px, py)``.
@@ -54,30 +60,33 @@ class Path:
         xl, yl, sl, n, closed = self._xl, self._yl, self._sl, len(self._xl), self.closed
         # (the distances inline: this runs every driver step, and a call costs as much as the arithmetic)
         i = hint % n if closed else (0 if hint < 0 else (n - 1 if hint > n - 1 else hint))
-        d = (xl[i] - px) ** 2 + (yl[i] - py) ** 2
+        dx, dy = xl[i] - px, yl[i] - py
+        d = dx * dx + dy * dy
         for direction in (1, -1):
+            moved = False
             while True:
                 j = i + direction
                 if closed:
                     j %= n
                 elif not 0 <= j < n:
                     break
-                dj = (xl[j] - px) ** 2 + (yl[j] - py) ** 2
+                dx, dy = xl[j] - px, yl[j] - py
+                dj = dx * dx + dy * dy
                 if dj >= d:
                     break
-                i, d = j, dj
+                i, d, moved = j, dj, True
+            if moved:           # the sample it came from lies farther: no need to look back
+                break
         # foot point on the segment after i, else on the one before it
         for a in (i, i - 1):
-            b = a + 1
             if closed:
-                a, b = a % n, b % n
-            elif a < 0 or b >= n:
+                a %= n
+            elif a < 0 or a + 1 >= n:
                 continue
-            ex, ey = xl[b] - xl[a], yl[b] - yl[a]
-            seg2 = ex * ex + ey * ey
-            w = ((px - xl[a]) * ex + (py - yl[a]) * ey) / seg2
+            ex, ey = self._ex[a], self._ey[a]
+            w = ((px - xl[a]) * ex + (py - yl[a]) * ey) / self._seg2[a]
             if 0.0 <= w <= 1.0:
-                return i, sl[a] + w * math.sqrt(seg2)
+                return i, sl[a] + w * self._seg[a]
         return i, sl[i]
 
     def point_at(self, station: float) -> tuple[float, float]:

@@ -196,6 +196,16 @@ for k in range(int(sys.argv[1])):
     plant.step(1e-3, delta_f=0.03 if (k // 500) % 2 else -0.03, T_drive=120.0, mu=0.9)
 """
 
+_DRIVER_STEPS = """
+import sys
+from sideslip.params import build
+from sideslip.plant.driver import Driver, DriverConfig
+from sideslip.scenarios import get_scenario
+driver = Driver(build(DriverConfig, get_scenario("park2018_case2").driver_params()))
+for k in range(int(sys.argv[1])):
+    driver.step(1e-3, 18.0, 0.018 * k, 0.002 * k, 0.0)
+"""
+
 _LOOP_STEPS = """
 import sys
 from sideslip.cosim.assembly import scenario_components
@@ -209,7 +219,10 @@ with CoSimulation(comps, conns, step=1e-3, fmu_dir=sys.argv[2]) as sim:
 
 
 def _instructions(code: str, args) -> int:
-    """Instructions a Python process running ``code`` executes (valgrind's callgrind)."""
+    """Instructions a Python process running ``code`` executes (valgrind's callgrind).  One BLAS thread: OpenBLAS's
+    idle threads spin for as long as the scheduler lets them, millions of instructions that differ from run to run;
+    string hashing seeded, so that two runs lay out their dicts alike."""
+    import os
     import subprocess
     import sys
     import tempfile
@@ -218,7 +231,9 @@ def _instructions(code: str, args) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "callgrind.out"
         subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", sys.executable, "-c", code,
-                        *map(str, args)], capture_output=True, text=True, check=True)
+                        *map(str, args)], capture_output=True, text=True, check=True,
+                       env={**os.environ, "PYTHONHASHSEED": "0", "OPENBLAS_NUM_THREADS": "1",
+                            "OMP_NUM_THREADS": "1"})
         for line in out.read_text().splitlines():
             if line.startswith(("summary:", "totals:")):
                 return int(line.split()[1])
@@ -227,15 +242,15 @@ def _instructions(code: str, args) -> int:
 
 def instruction_counts(fmu_dir=DEFAULT_OUT, short: int = 200, long: int = 700) -> dict:
     """Instructions per 1 ms step, counted by callgrind (independent of the machine's load), as the difference of a
-    ``long`` and a ``short`` run (start-up cancels): the library ``VehiclePlant.step`` and the driver + plant +
-    sensors FMU loop in fmpy (the five-FMU loop takes over ten minutes to start under callgrind).  Needs valgrind
-    (``apt install valgrind``)."""
+    ``long`` and a ``short`` run (start-up cancels): the library ``VehiclePlant.step`` and ``Driver.step``
+    (following ``park2018_case2``'s path) and the driver + plant + sensors FMU loop in fmpy (the five-FMU loop takes
+    over ten minutes to start under callgrind).  Needs valgrind (``apt install valgrind``)."""
     import shutil
 
     if shutil.which("valgrind") is None:
         raise RuntimeError("counting instructions needs valgrind on the PATH (apt install valgrind)")
     ensure_fmus(["ManeuverDriver", "VehiclePlant", "VehicleSensors"], fmu_dir)
-    cases = {"VehiclePlant.step (library)": (_PLANT_STEPS, ()),
+    cases = {"VehiclePlant.step (library)": (_PLANT_STEPS, ()), "Driver.step (library)": (_DRIVER_STEPS, ()),
              "driver + plant + sensors (FMUs)": (_LOOP_STEPS, (fmu_dir,))}
     return {name: (_instructions(code, (long, *extra)) - _instructions(code, (short, *extra))) / (long - short)
             for name, (code, extra) in cases.items()}

@@ -20,7 +20,7 @@
 
 #define N_STATES 14
 #define N_OUTPUTS 24
-#define KERNEL_VERSION 1
+#define KERNEL_VERSION 2   /* 2: the binary holds the driver's step as well (driver_kernel.c) */
 
 /* State indices (sideslip.plant.dynamics.St). */
 enum { VX, VY, R, PHI, P, W_FL, W_FR, W_RL, W_RR, X, Y, PSI, AXF, AYF };
