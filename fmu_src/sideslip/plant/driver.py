@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from math import atan, atan2, cos, sin, sqrt
+from math import atan, atan2, cos, hypot, sin
 from dataclasses import dataclass
 
 import numpy as np
@@ -279,9 +279,7 @@ class Driver(Model):
         dx, dy = tx - px, ty - py
         c, s = cos(yaw), sin(yaw)
         lx, ly = c * dx + s * dy, -s * dx + c * dy
-        # sqrt of the sum of squares, not math.hypot, whose own algorithm C's libm does not share: the compiled
-        # step gives the same doubles
-        return atan(self._two_l * sin(atan2(ly, lx)) / sqrt(lx * lx + ly * ly))
+        return atan(self._two_l * sin(atan2(ly, lx)) / hypot(lx, ly))
 
     def step(self, h: float, vx: float, X: float, Y: float, yaw: float) -> None:
         """Advance by ``h`` [s] (> 0); arguments are the latest plant truth (``vx``, position, yaw)."""
