@@ -74,9 +74,13 @@ def test_the_compiled_driver_gives_the_reference_doubles_off_the_path_and_revers
     drivers = [_driver(scenario, compiled) for compiled in (0, 1)]
     path = drivers[0].plan.path
     n = len(path.x)
-    k = np.arange(-60, n + 60) if not path.closed else np.arange(2 * n)       # twice round a closed path
-    i = np.clip(k, 0, n - 1) % n
-    over = np.where(k < 0, k, np.where(k > n - 1, k - (n - 1), 0)) * 0.5        # along the end's heading
+    if path.closed:                                  # twice round
+        k = np.arange(2 * n)
+        i, over = k % n, np.zeros(k.size)
+    else:                                            # 30 m before the start to 30 m past the end
+        k = np.arange(-60, n + 60)
+        i = np.clip(k, 0, n - 1)
+        over = np.where(k < 0, k, np.where(k > n - 1, k - (n - 1), 0)) * 0.5     # along the end's heading
     X = path.x[i] + over * np.cos(path.psi[i]) + rng.uniform(-4.0, 4.0, k.size)
     Y = path.y[i] + over * np.sin(path.psi[i]) + rng.uniform(-4.0, 4.0, k.size)
     yaw = path.psi[i] + 2.5 * np.sin(k / 60.0) + rng.uniform(-0.1, 0.1, k.size)
@@ -87,6 +91,8 @@ def test_the_compiled_driver_gives_the_reference_doubles_off_the_path_and_revers
             driver.step(0.02, *row)
             out.append((*driver.outputs(), driver._idx, driver._integ))
     ref, got = np.array(outs[0]), np.array(outs[1])
+    idx = ref[:, -2]
+    assert (np.any(np.diff(idx) < -n // 2) if path.closed else idx.max() == n - 1)      # the wrap, or the end
     assert vx.min() < -10.0 and np.ptp(ref[:, 0]) > 1.0 and 0.7 in np.abs(ref[:, 0])
     _assert_same(got, ref)
 
