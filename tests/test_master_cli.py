@@ -13,7 +13,7 @@ from sideslip.cosim.master import CoSimulation
 from sideslip.studies.metrics import estimate_metrics, format_table, scenario_summary
 from sideslip.units import wrap_angle
 from sideslip.cosim.assembly import scenario_components
-from sideslip.studies.runs import run_scenario
+from sideslip.studies.runs import run_library, run_scenario
 from sideslip.scenarios import get_scenario
 from sideslip.params import build
 from sideslip.plant.driver import Driver, DriverConfig
@@ -116,6 +116,33 @@ def test_profile_mode_times_each_component(fmu_dir):
         res = sim.run(0.5, profile=True)
     assert set(res.meta["profile"]) == {"driver", "plant", "sensors"}
     assert all(len(v) == 5 and min(v) > 0 for v in res.meta["profile"].values())
+
+
+@pytest.mark.parametrize("scheme", ["gauss-seidel", "jacobi"])
+def test_boolean_inputs_are_set_when_they_change(fmu_dir, scheme):
+    """A Boolean input keeps its value until it is set again (FMI 2.0): the master sets the estimator's GNSS flags at
+    the first step and at each change only, and the estimate is the library loop's, which is given every value."""
+    sc = get_scenario("park2018_case2", duration=2.0)
+    comps, conns = scenario_components(sc, ["SideslipFusion"])
+    calls = {}
+    with CoSimulation(comps, conns, fmu_dir=fmu_dir, scheme=scheme) as sim:
+        for inst in sim._instances:
+            fn = inst._fn["fmi2SetBoolean"]
+
+            def counted(*args, _fn=fn, _name=inst.name):
+                calls[_name] = calls.get(_name, 0) + 1
+                return _fn(*args)
+            inst._fn["fmi2SetBoolean"] = counted
+        res = sim.run(2.0)
+    flags = np.column_stack([res["sensors.gps_fresh"], res["sensors.gps_valid"]])
+    seen = flags[1:] if scheme == "gauss-seidel" else flags[:-1]      # what the estimator is given at each step
+    changes = int(np.count_nonzero(np.any(seen[1:] != seen[:-1], axis=1)))
+    assert changes > 50                                               # the fix flag: on and off at 50 Hz
+    assert calls == {"SideslipFusion": 1 + changes}
+    if scheme == "gauss-seidel":
+        lib = run_library(sc, ["SideslipFusion"], duration=2.0)
+        for name in ("beta_hat", "vx_hat", "yaw_hat", "gps_delay_hat"):
+            assert np.max(np.abs(res[f"SideslipFusion.{name}"] - lib[f"SideslipFusion.{name}"])) <= 1e-12, name
 
 
 # ---------------------------------------------------------------- metrics
@@ -240,6 +267,14 @@ def test_loop_breakdown_splits_each_fmus_step_into_its_parts(fmu_dir):
         assert parts["model_step"] > 0 and parts["outputs"] > 0, fmu
         assert inner == pytest.approx(parts["total"], rel=0.2), fmu
     assert b["VehiclePlant"]["model_step"] > b["VehicleSensors"]["model_step"]
+
+
+def test_the_programs_whose_instructions_bench_counts_run():
+    """``bench --instructions`` counts these programs under valgrind; here they run as they are."""
+    from sideslip.studies import speed
+
+    for code in (speed._PLANT_STEPS, speed._DRIVER_STEPS, speed._CONTROLLER_STEPS, speed._FUSION_STEPS):
+        subprocess.run([sys.executable, "-c", code, "30"], check=True, capture_output=True)
 
 
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")

@@ -57,6 +57,13 @@ reference (lag ``tau_beta`` = 0.15 s, faster than the car's own sideslip respons
 the yaw rate, effort and saturation on every training maneuver; band-limited so that steering noise
 stays quiet, it acts late (the figures: docs, "Stability control").
 
+The step runs compiled (:mod:`sideslip.plant.kernel`, the same doubles) where this platform's binary is present,
+``compiled`` is 1 and the feed-forward is off (the drivable profile's default): the sample clock and the whole law
+in C, the choice of the design on ``mu_hat`` (``friction_source = 1``) in Python, made at every step with finite
+inputs (the reference makes it at its samples: the samples use the same design); this module's and
+:mod:`sideslip.control.base`'s Python is the reference it is checked against.  With the feed-forward the reference
+runs.
+
 No wind-up: the controller's states are the reference lags, the feed-forward filter (driven by the steering
 alone), the transfer weights, the rate limiter and (``k_integral > 0``) the yaw-rate integral, which does not grow
 while the command is saturated in the error's direction; none is fed by the saturated output, so a saturated
@@ -67,10 +74,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..constants import GRAVITY
 from ..params import param
+from ..plant import kernel
+from ..plant.clock import StepClock
 from ..signals import LQR_OUTPUTS
 from ..vehicles import VehicleParams
-from .base import YawMomentConfig, YawMomentController, dead_zone, yaw_moment_limit
+from .base import (STEER_OFFSET_MAX, STRAIGHT_STEER, STRAIGHT_YAW_RATE, YawMomentConfig, YawMomentController,
+                   dead_zone, yaw_moment_limit)
 from .feedforward import ScheduledFeedforward, first_order_lowpass, second_order_lowpass
 from .lqr import gain_schedule
 
@@ -115,9 +126,12 @@ class LqrDycConfig(YawMomentConfig):
     tau_ff: float = param(0.02, "Time", "Low-pass that makes the feed-forward of eq 24 proper (profile 0)", gt=0, le=1)
     f_ff: float = param(2.0, "Frequency", "Bandwidth of the feed-forward: second-order Butterworth (profile 1)",
                         ge=0.05, le=50)
+    compiled: int = param(1, "Dimensionless", "Step computation: 1 compiled C where the FMU carries it for this "
+                          "platform and the feed-forward is off (the same doubles, faster), 0 the pure-Python "
+                          "reference", choices=(0, 1))
 
 
-class LqrDycController(YawMomentController):
+class LqrDycController(kernel.CompiledStep, YawMomentController):
     """Reference model + feed-forward + scheduled LQR + saturation (see module docstring).
 
     Parameters
@@ -147,7 +161,24 @@ class LqrDycController(YawMomentController):
         if self.use_ff:                 # designed only when used: python-control's import takes about 2 s
             lowpass = second_order_lowpass(cfg.f_ff) if self.shaped else first_order_lowpass(cfg.tau_ff)
             self.ff = ScheduledFeedforward(self.model, cfg.tau_beta, lowpass, self.Ts, cfg.v_min, cfg.v_max)
+        self._compile()
         self.reset()
+
+    def _compile(self) -> None:
+        """The compiled step (module docstring), where it runs."""
+        cfg = self.config
+        self._native = None
+        if not (cfg.compiled and not self.use_ff and kernel.available()):
+            return
+        ref = self.reference
+        self._native = kernel.LqrKernel(dict(
+            shaped=int(self.shaped), valid_gate=int(bool(cfg.valid_gate)), hold_limit=int(bool(ref.hold_limit)),
+            band=self._band, first=int(self._first), clock_rounding=StepClock.RELATIVE_ROUNDING, v_min=cfg.v_min,
+            v_fade=cfg.v_fade, v_max=cfg.v_max, dv=self._dv, dmz=self._dmz, Mz_max=self.Mz_max, k_offset=self._k_offset,
+            beta_std_ref=cfg.beta_std_ref, ramp_rate=self.Ts / cfg.t_transfer, a_beta=ref._a_beta,
+            a_gamma=ref._a_gamma, gravity=GRAVITY, deadband=self._deadband, k_integral=self._k_integral,
+            bleed=self._bleed, Ts=self.Ts, K_beta=self.K_beta, straight_yaw_rate=STRAIGHT_YAW_RATE,
+            straight_steer=STRAIGHT_STEER, steer_offset_max=STEER_OFFSET_MAX)).step
 
     def _design(self, mu: float) -> dict:
         """The bicycle model on friction ``mu`` and its LQR gain schedule (the feed-forward stays at ``mu``)."""
@@ -178,6 +209,31 @@ class LqrDycController(YawMomentController):
     def Mz_fb(self) -> float:
         """Feedback part of the last command, before saturation [N m]."""
         return self._parts[1]
+
+    def step(self, h: float, delta_m: float, vx_hat: float, beta_hat: float, yaw_rate_m: float,
+             yaw_rate_hat: float = 0.0, beta_valid: bool = True, dyc_enable: bool = True,
+             mu_hat: float = 0.0, beta_std: float = 0.0) -> None:
+        """:meth:`YawMomentController.step`, with its clock and samples compiled where they run (module
+        docstring; the step clock's and the sample count's state go in and out of the kernel)."""
+        native = self._native
+        if native is None or not h > 0.0:
+            return super().step(h, delta_m, vx_hat, beta_hat, yaw_rate_m, yaw_rate_hat, beta_valid, dyc_enable,
+                                mu_hat, beta_std)
+        yaw_rate = yaw_rate_hat if self.config.yaw_rate_source else yaw_rate_m
+        if self.follows_friction and math.isfinite(delta_m + vx_hat + beta_hat + yaw_rate):
+            # the design the step's samples use: the reference's, which follows mu_hat at its samples
+            self._follow_friction(mu_hat)
+        clock, ref, parts = self._clock, self.reference, self._parts
+        (clock.t, clock._base, n, clock._h, done, samples, self.v_schedule, self.enabled.value, self.beta_weight.value,
+         self.steer_offset, self.integral, mz, ref.beta, ref.gamma, parts[0], parts[1]) = native(
+            self, h, delta_m, vx_hat, beta_hat, yaw_rate, beta_valid, dyc_enable, beta_std, clock.t, clock._base,
+            clock._n, math.nan if clock._h is None else clock._h, self._samples, 0.0, self.v_schedule,
+            self.enabled.value, self.beta_weight.value, self.steer_offset, self.integral, self.Mz, ref.beta, ref.gamma,
+            parts[0], parts[1])
+        clock._n, self._samples, self.Mz = int(n), int(done), mz
+        if samples:
+            self._out = (mz, ref.beta, ref.gamma, parts[0], parts[1])
+        return None
 
     def _law(self, delta, v, beta_ref, gamma_ref, beta_hat, yaw_rate, w_beta):
         n_ff = 0.0

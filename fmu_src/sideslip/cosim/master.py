@@ -11,7 +11,9 @@
   :mod:`sideslip.cosim.libcosim_master`).
 * Lean loop: value references resolved once, one preallocated buffer for all outputs,
   batched ``fmi2GetReal``/``fmi2SetReal`` per component, raw ctypes calls (GIL held, so
-  pythonfmu's GIL round trip is a no-op), no per-step allocation.
+  pythonfmu's GIL round trip is a no-op), no per-step allocation.  Boolean inputs are set at the
+  first step and whenever they change (an FMI 2.0 input keeps its value until it is set again):
+  event flags and validity change a few times a second.
 * Every output of every component is recorded (optionally every n-th step) into a
   structured array with fields ``time`` and ``<instance>.<variable>``.
 * Extracted FMUs are cached per process, so hundreds of runs (tuning studies) load each
@@ -298,6 +300,9 @@ class CoSimulation:
                          inst.n_in_b, f["fmi2SetBoolean"], inst.in_b_vr, inst.in_b_ptr, inst.in_b_src, inst.UB,
                          inst.n_out_r, f["fmi2GetReal"], inst.out_r_vr, inst.out_r_ptr,
                          inst.n_out_b, f["fmi2GetBoolean"], inst.out_b_vr, inst.out_b_ptr))
+        # a Boolean input keeps its value until it is set again (FMI 2.0): set only when it changed (event flags and
+        # validity change a few times a second, the call into a Python FMU costs microseconds)
+        sent_b: dict[str, bytes | None] = {inst.name: None for inst in self._instances}
         # the arrays' own take: np.take's Python wrapper costs a microsecond per call, seven calls per step
         Y, B, take_r, take_b = self.Y, self.B, self.Y.take, self.B.take
         c_h = ctypes.c_double(h)
@@ -324,8 +329,10 @@ class CoSimulation:
                             inst.check(2, "fmi2SetReal", t)
                     if n_ib:
                         take_b(src_ib, out=u_b)
-                        if set_b(comp, vr_ib, n_ib, p_ib) > 1:
-                            inst.check(2, "fmi2SetBoolean", t)
+                        if (sent := u_b.tobytes()) != sent_b[inst.name]:
+                            sent_b[inst.name] = sent
+                            if set_b(comp, vr_ib, n_ib, p_ib) > 1:
+                                inst.check(2, "fmi2SetBoolean", t)
             for j, (inst, comp, do_step, n_ir, set_r, vr_ir, p_ir, src_ir, u_r, n_ib, set_b, vr_ib, p_ib, src_ib, u_b,
                     n_or, get_r, vr_or, p_or, n_ob, get_b, vr_ob, p_ob) in enumerate(plan):
                 if clock:
@@ -336,8 +343,10 @@ class CoSimulation:
                         inst.check(2, "fmi2SetReal", t)
                 if n_ib and not jacobi:
                     take_b(src_ib, out=u_b)
-                    if set_b(comp, vr_ib, n_ib, p_ib) > 1:
-                        inst.check(2, "fmi2SetBoolean", t)
+                    if (sent := u_b.tobytes()) != sent_b[inst.name]:
+                        sent_b[inst.name] = sent
+                        if set_b(comp, vr_ib, n_ib, p_ib) > 1:
+                            inst.check(2, "fmi2SetBoolean", t)
                 status = do_step(comp, c_t, c_h, one)
                 if status > 1:
                     inst.check(status, "fmi2DoStep", t)

@@ -113,7 +113,7 @@ class KalmanFilter:
         self.P = 0.5 * (P + P.T)
         return float(y.dot(X[:, n]))
 
-    def update_scalar(self, innovation: float, h, r: float, Ph=None) -> float:
+    def update_scalar(self, innovation: float, h, r: float, Ph=None, hPh: float | None = None) -> float:
         """Update with one scalar measurement (row ``h``, variance ``r``); no matrix inverse.
 
         Equal to :meth:`update` with a 1x1 ``S``; several independent scalar measurements may
@@ -122,8 +122,8 @@ class KalmanFilter:
         ``P - (P h)(P h)^T / s``, done in one BLAS ``dger`` call; it stays positive definite
         because ``s = h^T P h + r > h^T P h``.
 
-        ``Ph``, ``P h`` of the current ``P``, may be passed by a caller that needed it before (its
-        innovation's variance ``h^T P h``); it is computed otherwise.
+        ``Ph``, ``P h`` of the current ``P``, and ``hPh``, ``float(h.dot(Ph))``, may be passed by a caller that
+        needed them before (its innovation's variance ``h^T P h``); they are computed otherwise.
 
         Returns
         -------
@@ -134,7 +134,7 @@ class KalmanFilter:
         P = self.P
         if Ph is None:
             Ph = P.dot(h)
-        s = float(h.dot(Ph)) + r
+        s = (float(h.dot(Ph)) if hPh is None else hPh) + r
         innovation = float(innovation)
         self.x = self.x + Ph * (innovation / s)
         if self.A is not None:                            # (I - k h^T) A

@@ -52,8 +52,10 @@ DEFAULT_OUT = Path(os.environ.get("SIDESLIP_FMU_DIR") or Path("build") / "fmus")
 """Where the FMUs are built and found by default: ``$SIDESLIP_FMU_DIR``, else ``build/fmus`` under the working
 folder (a notebook or a script in another folder can share one build through the variable)."""
 SHIM_SOURCE = PACKAGE_DIR / "fmi" / "native" / "fmi2_status_shim.c"
-KERNEL_SOURCES = tuple(PACKAGE_DIR / "plant" / "native" / f"{model}_kernel.c" for model in ("plant", "driver"))
-"""The plant's compiled step (:mod:`sideslip.plant.kernel`), built for each platform into the FMUs that run it."""
+KERNEL_SOURCES = (*(PACKAGE_DIR / "plant" / "native" / f"{model}_kernel.c" for model in ("plant", "driver")),
+                  PACKAGE_DIR / "control" / "native" / "lqr_kernel.c")
+"""The plant's, the driver's and the LQR's compiled steps (:mod:`sideslip.plant.kernel`, one binary), built for each
+platform into the FMUs."""
 KERNEL_MODULE = PACKAGE_DIR / "plant" / "kernel.py"
 FP_FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
 """The kernel computes the same doubles as its Python reference: IEEE arithmetic, no fused multiply-adds."""
@@ -152,8 +154,8 @@ def compile_shim(work: Path, guid: str = "", platform: str = "linux64") -> tuple
 
 
 def compile_kernel(work: Path, platform: str = "linux64") -> Path | None:
-    """Compile the plant's and the driver's steps (:data:`KERNEL_SOURCES`, one binary) for a platform into
-    ``work``; None without its compiler (the plant and the driver then run their Python reference there)."""
+    """Compile the plant's, the driver's and the LQR's steps (:data:`KERNEL_SOURCES`, one binary) for a platform into
+    ``work``; None without its compiler (they then run their Python reference there)."""
     from ..plant.kernel import LIBRARY_NAME
 
     cc = _find_cc(platform)
@@ -162,7 +164,7 @@ def compile_kernel(work: Path, platform: str = "linux64") -> Path | None:
     out = work / f"{LIBRARY_NAME}{PLATFORMS[platform]}"
     flags = ["-fPIC", "-fvisibility=hidden"] if platform == "linux64" else ["-s", "-static-libgcc"]
     _compile([cc, "-shared", *FP_FLAGS, *flags, *map(str, KERNEL_SOURCES), "-o", str(out), "-lm"],
-             f"the plant and driver kernel ({platform})")
+             f"the plant, driver and LQR kernel ({platform})")
     return out
 
 

@@ -147,7 +147,7 @@ class DriverConfig(VehicleConfig):
         return {**out, "maneuver_kind": kind, **maneuvers[kind - 1].numbers(maneuver)}
 
 
-class Driver(Model):
+class Driver(kernel.CompiledStep, Model):
     """Closed-loop driver executing one maneuver.
 
     Parameters
@@ -188,18 +188,17 @@ class Driver(Model):
         # the speed controller's: gains, rolling resistance [N], drag [kg/m], mass, force bounds, radius, times
         self._speed_law = (cfg.speed_kp, cfg.speed_ki, v.m * GRAVITY * v.f_rr, 0.5 * v.rho_air * v.CdA, v.m,
                            v.m * -cfg.decel_max, v.m * cfg.accel_max, v.R_w, plan.brake_only_from, plan.coast_from)
-        self._native = None                # the compiled step's bound method (an FMU state takes it from a template)
+        self._compile()
+
+    def _compile(self) -> None:
+        cfg = self.config
+        self._native = None
         if cfg.compiled and kernel.available():
             law = dict(zip(("kp", "ki", "roll_force", "drag", "m", "f_lo", "f_hi", "radius", "brake_only_from",
                             "coast_from"), self._speed_law))
-            self._native = kernel.DriverKernel(plan.path, self._vlim, dict(
+            self._native = kernel.DriverKernel(self.plan.path, self._vlim, dict(
                 preview_time=cfg.preview_time, preview_min=cfg.preview_min, two_l=self._two_l, rate=self._rate,
                 hold_torque=self._hold_torque(), **law)).step
-
-    @property
-    def compiled(self) -> bool:
-        """Whether the steps run the compiled kernel (:mod:`sideslip.plant.kernel`)."""
-        return self._native is not None
 
     def _curve_speed_profile(self) -> list | None:
         """Speed limit per path sample from curvature, propagated backwards with decel_max."""

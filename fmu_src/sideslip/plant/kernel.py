@@ -1,11 +1,11 @@
-"""The plant's and the driver's steps compiled from C (``native/plant_kernel.c``, ``native/driver_kernel.c``),
-loaded with ctypes.
+"""The plant's, the driver's and the LQR controller's steps compiled from C (``native/plant_kernel.c``,
+``native/driver_kernel.c``, ``sideslip/control/native/lqr_kernel.c``: one binary), loaded with ctypes.
 
 The pure-Python models (:mod:`sideslip.plant.dynamics` and :class:`~sideslip.plant.vehicle.VehiclePlant`,
-:class:`~sideslip.plant.driver.Driver`) are the reference; the C files repeat their arithmetic operation for
-operation, so both give the same doubles on one platform (``tests/test_plant_kernel.py`` and
-``tests/test_driver_kernel.py`` check them equal to 1e-12, and bit-identical on Linux x86-64); the cost of each is
-in the Performance page.
+:class:`~sideslip.plant.driver.Driver`, :class:`~sideslip.control.dyc.LqrDycController`) are the reference; the C
+files repeat their arithmetic operation for operation, so both give the same doubles on one platform
+(``tests/test_plant_kernel.py``, ``tests/test_driver_kernel.py`` and ``tests/test_lqr_kernel.py`` check them equal
+to 1e-12, and bit-identical on Linux x86-64); the cost of each is in the Performance page.
 
 Plain C without the Python API, so one binary serves every Python version; ctypes, not a C extension, because
 the win64 FMUs are cross-compiled without a Windows Python to link against.  Where the binary comes from:
@@ -16,7 +16,7 @@ the win64 FMUs are cross-compiled without a Windows Python to link against.  Whe
 
 The binary is loaded when this module is imported, which an FMU does at instantiation: some hosts delete the
 unpacked FMU afterwards.  Without a binary for this platform (no compiler at install, another operating system)
-the plant and the driver run the Python reference and :data:`UNAVAILABLE` says why.
+the plant, the driver and the controller run the Python reference and :data:`UNAVAILABLE` says why.
 """
 from __future__ import annotations
 
@@ -26,14 +26,14 @@ import struct
 import sys
 from pathlib import Path
 
-__all__ = ["PlantKernel", "DriverKernel", "available", "UNAVAILABLE", "LIBRARY_NAME", "PLATFORM", "N_STATE", "N_INPUTS",
-           "N_OUTPUTS"]
+__all__ = ["CompiledStep", "PlantKernel", "DriverKernel", "LqrKernel", "available", "UNAVAILABLE", "LIBRARY_NAME", "PLATFORM",
+           "N_STATE", "N_INPUTS", "N_OUTPUTS"]
 
 LIBRARY_NAME = "sideslip_plant_kernel"
 """File name (without extension) of the binary an FMU carries."""
 PLATFORM = {"linux": "linux64", "win32": "win64"}.get(sys.platform)
 """This machine's FMI platform folder, where an FMU's kernel is."""
-KERNEL_VERSION = 2
+KERNEL_VERSION = 3
 """Interface version the binary must report (``sideslip_plant_kernel_version``)."""
 N_STATE, N_INPUTS, N_OUTPUTS = 15, 8, 24
 """The kernel's state (the plant's 14 states and the motors' torque difference), inputs and outputs."""
@@ -67,6 +67,8 @@ def _load():
         step.restype = ctypes.c_int
         lib.sideslip_driver_step.argtypes = None                 # (byref(plan), io): the fastest ctypes call
         lib.sideslip_driver_step.restype = None
+        lib.sideslip_lqr_step.argtypes = None                    # (byref(law), byref(design), io)
+        lib.sideslip_lqr_step.restype = None
         return lib, ""
     why = ("; ".join(tried) if tried
            else "no compiled plant kernel for this platform (built at install with a C compiler)")
@@ -80,6 +82,31 @@ _LIB, UNAVAILABLE = _load()
 def available() -> bool:
     """Whether the compiled plant step can run here."""
     return _LIB is not None
+
+
+class CompiledStep:
+    """What a model with a compiled step shares: :meth:`_compile` sets ``_native`` to the kernel's bound step where
+    it runs (None where it does not); a pickled model carries no ctypes buffers and makes them again.  (An FMU state
+    holds data only: it takes the bound step from a template of the same parameters.)"""
+
+    _native = None
+
+    def _compile(self) -> None:  # pragma: no cover - every user overrides it
+        raise NotImplementedError
+
+    @property
+    def compiled(self) -> bool:
+        """Whether the steps run the compiled kernel."""
+        return self._native is not None
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_native"] = None
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._compile()
 
 
 class PlantKernel:
@@ -205,3 +232,78 @@ class DriverKernel:
         _DRIVER_IN.pack_into(io, 0, *values)        # (struct moves the doubles faster than ctypes' slices)
         self._fn(self._ref, io)
         return _DRIVER_OUT.unpack_from(io, 9 * 8)
+
+
+class LqrLaw(ctypes.Structure):
+    """What an LQR controller's compiled samples share: the C ``LqrLaw`` (lqr_kernel.c), field for field."""
+
+    _fields_ = [*((name, ctypes.c_int) for name in ("shaped", "valid_gate", "hold_limit", "band", "first")),
+                *((name, ctypes.c_double) for name in (
+                    "clock_rounding", "v_min", "v_fade", "v_max", "dv", "dmz", "Mz_max", "k_offset", "beta_std_ref",
+                    "ramp_rate", "a_beta", "a_gamma", "gravity", "deadband", "k_integral", "bleed", "Ts", "K_beta",
+                    "straight_yaw_rate", "straight_steer", "steer_offset_max"))]
+
+
+class LqrDesign(ctypes.Structure):
+    """One friction's design for the compiled samples: the C ``LqrDesign`` (lqr_kernel.c), field for field."""
+
+    _fields_ = [("grid", _VEC), ("rows", _VEC), ("n", ctypes.c_int),
+                *((name, ctypes.c_double) for name in (
+                    "l", "understeer_gradient", "l_r", "m", "l_f", "C_r", "mu", "beta_limit"))]
+
+
+LQR_IO = 24
+"""Values of one compiled controller step (lqr_kernel.c ``IO_*``)."""
+_LQR_IN, _LQR_OUT = struct.Struct("=24d"), struct.Struct("=16d")
+
+
+class LqrKernel:
+    """The compiled samples of one LQR controller: its constant law, a compiled design per friction it has used, and
+    the buffer the C function reads and writes.
+
+    Parameters
+    ----------
+    law : dict
+        The :class:`LqrLaw` fields by name.
+
+    Raises
+    ------
+    RuntimeError
+        Without a binary (:func:`available`), or when the binary's layout is not this module's.
+    """
+
+    def __init__(self, law: dict):
+        if _LIB is None:
+            raise RuntimeError(UNAVAILABLE)
+        if (_LIB.sideslip_lqr_io_size() != LQR_IO or _LIB.sideslip_lqr_law_size() != ctypes.sizeof(LqrLaw)
+                or _LIB.sideslip_lqr_design_size() != ctypes.sizeof(LqrDesign)):
+            raise RuntimeError("the LQR kernel's layout is not this module's")
+        self._law = LqrLaw(**law)
+        self._law_ref = ctypes.byref(self._law)
+        self._designs: dict = {}            # design friction -> (byref(LqrDesign), the design and arrays it points to)
+        self._io = (ctypes.c_double * LQR_IO)()
+        self._fn = _LIB.sideslip_lqr_step
+
+    def _design(self, mu: float, model, gains, beta_limit: float):
+        grid = (ctypes.c_double * len(gains.grid))(*gains.grid)
+        rows = (ctypes.c_double * (2 * len(gains.rows)))(*(g for row in gains.rows for g in row))
+        design = LqrDesign(grid=ctypes.cast(grid, _VEC), rows=ctypes.cast(rows, _VEC), n=len(gains.grid),
+                           l=model.l, understeer_gradient=model.understeer_gradient, l_r=model.l_r, m=model.m,
+                           l_f=model.l_f, C_r=model.C_r, mu=mu, beta_limit=beta_limit)
+        entry = self._designs[mu] = (ctypes.byref(design), design, grid, rows)
+        return entry
+
+    def step(self, ctl, *values):
+        """One communication step of the controller ``ctl`` (its design: ``mu_design``, ``model``, ``gains``,
+        ``beta_limit``): the step ``h`` (> 0), the inputs ``delta, vx_hat, beta_hat, yaw_rate, beta_valid, enable,
+        beta_std``, the clock ``t, base, n, h_clock`` (NaN before the first step), ``samples_done``, a placeholder
+        for the step's samples and the state ``v_schedule, enabled, beta_weight, steer_offset, integral, Mz,
+        beta_ref, gamma_ref, Mz_ff, Mz_fb`` in; returns the values from the clock on after the step, the step's
+        samples in the placeholder (lqr_kernel.c, :meth:`~sideslip.control.base.YawMomentController.step`)."""
+        entry = self._designs.get(ctl.mu_design)
+        if entry is None:
+            entry = self._design(ctl.mu_design, ctl.model, ctl.gains, ctl.beta_limit)
+        io = self._io
+        _LQR_IN.pack_into(io, 0, *values)           # (struct moves the doubles faster than ctypes' slices)
+        self._fn(self._law_ref, entry[0], io)
+        return _LQR_OUT.unpack_from(io, 8 * 8)

@@ -137,6 +137,11 @@ class _Sampler:
             return True
         return False
 
+    def not_before(self) -> float:
+        """A time before which :meth:`due` is false: ``floor(t rate + eps) > last`` needs ``t >= (last + 1 - eps) /
+        rate``, less a relative margin far above the rounding of either side [s]."""
+        return (self.last + 1 - _EPS_SAMPLE) / self.rate * (1.0 - 1e-9)
+
 
 class SensorSuite(Model):
     """All sensors of the vehicle; one :meth:`step` per communication step.
@@ -187,6 +192,8 @@ class SensorSuite(Model):
         self._steer = _Sampler(cfg.steer_rate)
         self._gps = _Sampler(cfg.gps_rate)
         self._mag = _Sampler(cfg.mag_rate)
+        self._samplers = (self._imu, self._wheel, self._steer, self._gps, self._mag)
+        self._next_due = 0.0                 # no sensor is due before (most steps take none: no sampler is asked)
         # truth history for the GPS delay: (t, ve, vn), trimmed to the delay window
         self._hist: deque = deque()
         self._gps_seen = False
@@ -201,6 +208,16 @@ class SensorSuite(Model):
             i = 0
         self._noise_i = i + 1
         return self._noise[i]
+
+    def _draws(self, k: int) -> list:
+        """The next ``k`` values of the noise stream, those ``k`` calls of :meth:`_gauss` return (one slice but at
+        the end of a block)."""
+        i = self._noise_i
+        j = i + k
+        if j <= len(self._noise):
+            self._noise_i = j
+            return self._noise[i:j]
+        return [self._gauss() for _ in range(k)]
 
     def _in_outage(self, t: float) -> bool:
         for a, b in self._outages:
@@ -235,34 +252,38 @@ class SensorSuite(Model):
         while len(hist) > 2 and hist[1][0] < horizon:
             hist.popleft()
 
-        if self._imu.due(t):
-            out[SO.AX_M] = ax + cfg.ax_bias + cfg.ax_sigma * g()
-            out[SO.AY_M] = ay + cfg.ay_bias + cfg.ay_sigma * g()
+        due = t >= self._next_due
+        if due and self._imu.due(t):
+            n_ax, n_ay, n_r, n_p = self._draws(4)
+            out[SO.AX_M] = ax + cfg.ax_bias + cfg.ax_sigma * n_ax
+            out[SO.AY_M] = ay + cfg.ay_bias + cfg.ay_sigma * n_ay
             if cfg.yaw_rate_bias_drift > 0.0:      # random walk: variance drift^2 per 100 s
                 self.yaw_rate_bias += cfg.yaw_rate_bias_drift * math.sqrt(0.01 / cfg.imu_rate) * \
                     float(self._walk_rng.standard_normal())
-            out[SO.YAW_RATE_M] = yaw_rate + self.yaw_rate_bias + cfg.yaw_rate_sigma * g()
-            out[SO.ROLL_RATE_M] = roll_rate + cfg.roll_rate_bias + cfg.roll_rate_sigma * g()
-        if self._steer.due(t):
+            out[SO.YAW_RATE_M] = yaw_rate + self.yaw_rate_bias + cfg.yaw_rate_sigma * n_r
+            out[SO.ROLL_RATE_M] = roll_rate + cfg.roll_rate_bias + cfg.roll_rate_sigma * n_p
+        if due and self._steer.due(t):
             fault = t >= cfg.steer_fault_time and cfg.steer_fault != "none"
             if not (fault and cfg.steer_fault == "stuck"):
                 out[SO.DELTA_M] = delta_f + cfg.steer_bias + cfg.steer_sigma * g() + (
                     cfg.steer_fault_offset if fault else 0.0)
             out[SO.DELTA_FAULT_ACTIVE] = 1.0 if fault else 0.0    # describes the held sample
-        if self._wheel.due(t):
+        if due and self._wheel.due(t):
             k, sig = 1.0 + cfg.wheel_radius_error, cfg.wheel_sigma
-            out[SO.OMEGA_FL_M] = omega_fl * k + sig * g()
-            out[SO.OMEGA_FR_M] = omega_fr * k + sig * g()
-            out[SO.OMEGA_RL_M] = omega_rl * k + sig * g()
-            out[SO.OMEGA_RR_M] = omega_rr * k + sig * g()
+            n_fl, n_fr, n_rl, n_rr = self._draws(4)
+            out[SO.OMEGA_FL_M] = omega_fl * k + sig * n_fl
+            out[SO.OMEGA_FR_M] = omega_fr * k + sig * n_fr
+            out[SO.OMEGA_RL_M] = omega_rl * k + sig * n_rl
+            out[SO.OMEGA_RR_M] = omega_rr * k + sig * n_rr
         out[SO.GPS_FRESH] = 0.0
-        outage = self._in_outage(t)
-        if self._gps.due(t):
+        outage = bool(self._outages) and self._in_outage(t)
+        if due and self._gps.due(t):
             truth = self._delayed_velocity(t - cfg.gps_delay)
             if truth is not None:
                 # drawn during outages too, so that an outage leaves every other noise sample unchanged
-                ve = truth[0] + cfg.gps_vel_sigma * g()
-                vn = truth[1] + cfg.gps_vel_sigma * g()
+                n_e, n_n = self._draws(2)
+                ve = truth[0] + cfg.gps_vel_sigma * n_e
+                vn = truth[1] + cfg.gps_vel_sigma * n_n
             if truth is not None and not outage:
                 out[SO.GPS_VE], out[SO.GPS_VN] = ve, vn
                 out[SO.GPS_SPEED] = math.hypot(ve, vn)
@@ -270,7 +291,7 @@ class SensorSuite(Model):
                 out[SO.GPS_FRESH] = 1.0
                 self._gps_seen = True
         out[SO.GPS_VALID] = 1.0 if (self._gps_seen and not outage) else 0.0
-        if self._mag.due(t):
+        if due and self._mag.due(t):
             episode = self._episode_at(t)
             fx, fy, fz = self._field
             bx, by = c * fx + s * fy, -s * fx + c * fy           # yaw (Rz^T)
@@ -280,10 +301,13 @@ class SensorSuite(Model):
                 dx, dy, dz = episode[2]
                 mx, my, mz = mx + dx, my + dy, mz + dz
             sig = cfg.mag_sigma
-            out[SO.MAG_X] = mx + sig * g()
-            out[SO.MAG_Y] = my + sig * g()
-            out[SO.MAG_Z] = mz + sig * g()
+            n_x, n_y, n_z = self._draws(3)
+            out[SO.MAG_X] = mx + sig * n_x
+            out[SO.MAG_Y] = my + sig * n_y
+            out[SO.MAG_Z] = mz + sig * n_z
             out[SO.MAG_DISTURBANCE_ACTIVE] = 1.0 if episode is not None else 0.0  # describes the held sample
+        if due:
+            self._next_due = min(sampler.not_before() for sampler in self._samplers)
 
     def _episode_at(self, t: float):
         eps = self.episodes

@@ -63,7 +63,7 @@ class PlantConfig(VehicleConfig):
         check(self)
 
 
-class VehiclePlant(Model):
+class VehiclePlant(kernel.CompiledStep, Model):
     """The 8-DOF vehicle with Dugoff or Magic Formula tires, load transfer, in-wheel motors and RK4.
 
     Parameters
@@ -92,15 +92,12 @@ class VehiclePlant(Model):
         # stiffness of the wheel-spin mode: R^2 C_sigma / (I_w max(|R w|, v_min)) + brake term
         self._stiff = (v.R_w, cfg.v_min, v.R_w * v.R_w * v.C_sigma / v.I_w, 1.0 / (v.I_w * cfg.omega_eps),
                        1.0 / cfg.z_max, cfg.max_substeps)
-        self._native = None               # the compiled step's bound method (an FMU state takes it from a template)
-        if cfg.compiled and kernel.available():
-            self._native = kernel.PlantKernel(self._kernel_constants()).step
+        self._compile()
         self.reset()
 
-    @property
-    def compiled(self) -> bool:
-        """Whether the steps run the compiled kernel (:mod:`sideslip.plant.kernel`)."""
-        return self._native is not None
+    def _compile(self) -> None:
+        self._native = (kernel.PlantKernel(self._kernel_constants()).step
+                        if self.config.compiled and kernel.available() else None)
 
     def _kernel_constants(self) -> list[float]:
         """The constants of the compiled step, in the order of the C ``Constants`` struct (plant_kernel.c)."""
@@ -109,16 +106,6 @@ class VehiclePlant(Model):
         mf_front, mf_rear = d.mf if d.tire_model == MAGIC_FORMULA else (no_mf, no_mf)
         return [*d.k, *d.splits, *d.static, *mf_front, *mf_rear, *self._stiff, self._motor_arm, v.motor_T_max,
                 v.motor_tau, float(d.tire_model), GRAVITY]
-
-    def __getstate__(self):
-        state = self.__dict__.copy()
-        state["_native"] = None           # ctypes buffers do not pickle: made again by __setstate__
-        return state
-
-    def __setstate__(self, state):
-        self.__dict__.update(state)
-        if self.config.compiled and kernel.available():
-            self._native = kernel.PlantKernel(self._kernel_constants()).step
 
     # ------------------------------------------------------------------ state handling
     def reset(self) -> None:

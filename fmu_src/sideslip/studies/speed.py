@@ -206,6 +206,30 @@ for k in range(int(sys.argv[1])):
     driver.step(1e-3, 18.0, 0.018 * k, 0.002 * k, 0.0)
 """
 
+_CONTROLLER_STEPS = """
+import math, sys
+from sideslip.control.dyc import LqrDycController
+controller = LqrDycController()
+for k in range(int(sys.argv[1])):
+    w = math.sin(k / 150.0)
+    controller.step(1e-3, 0.03 * w, 20.0, 0.01 * w, 0.2 * w, 0.0, True, True, 0.0, 0.0)
+"""
+
+_FUSION_STEPS = """
+import sys
+from sideslip.estimators import ESTIMATORS
+from sideslip.params import build
+from sideslip.scenarios import get_scenario, scenario_params
+from sideslip.studies.runs import run_library
+scenario = get_scenario("park2018_case2", estimator_profile=1)
+fusion = ESTIMATORS["SideslipFusion"]
+recorded = run_library(scenario, [], duration=2.0)
+inputs = list(zip(*(recorded["sensors." + name].tolist() for name in fusion.input_names)))
+estimator = fusion(build(fusion.config_class, scenario_params(fusion.config_class, scenario)))
+for row in inputs[:1000] + inputs[1000:1000 + int(sys.argv[1])]:       # after 1 s: started, heading known
+    estimator.step(1e-3, *row)
+"""
+
 _LOOP_STEPS = """
 import sys
 from sideslip.cosim.assembly import scenario_components
@@ -242,15 +266,19 @@ def _instructions(code: str, args) -> int:
 
 def instruction_counts(fmu_dir=DEFAULT_OUT, short: int = 200, long: int = 700) -> dict:
     """Instructions per 1 ms step, counted by callgrind (independent of the machine's load), as the difference of a
-    ``long`` and a ``short`` run (start-up cancels): the library ``VehiclePlant.step`` and ``Driver.step``
-    (following ``park2018_case2``'s path) and the driver + plant + sensors FMU loop in fmpy (the five-FMU loop takes
-    over ten minutes to start under callgrind).  Needs valgrind (``apt install valgrind``)."""
+    ``long`` and a ``short`` run (start-up cancels): the library ``VehiclePlant.step``, ``Driver.step`` (following
+    ``park2018_case2``'s path), ``LqrDycController.step`` (a sine steer at 20 m/s), ``SideslipFusion.step`` (on
+    ``park2018_case2``'s sensor signals, after its first second) and the driver + plant + sensors FMU loop in fmpy
+    (the five-FMU loop takes over ten minutes to start under callgrind).  Needs valgrind (``apt install
+    valgrind``)."""
     import shutil
 
     if shutil.which("valgrind") is None:
         raise RuntimeError("counting instructions needs valgrind on the PATH (apt install valgrind)")
     ensure_fmus(["ManeuverDriver", "VehiclePlant", "VehicleSensors"], fmu_dir)
     cases = {"VehiclePlant.step (library)": (_PLANT_STEPS, ()), "Driver.step (library)": (_DRIVER_STEPS, ()),
+             "LqrDycController.step (library)": (_CONTROLLER_STEPS, ()),
+             "SideslipFusion.step (library)": (_FUSION_STEPS, ()),
              "driver + plant + sensors (FMUs)": (_LOOP_STEPS, (fmu_dir,))}
     return {name: (_instructions(code, (long, *extra)) - _instructions(code, (short, *extra))) / (long - short)
             for name, (code, extra) in cases.items()}

@@ -5,6 +5,7 @@ import math
 from collections import deque
 
 import numpy as np
+from scipy.linalg.lapack import dpotrf as _potrf
 
 from ...params import parse_bool
 from ...signals import WHEEL_SPEEDS_M
@@ -131,11 +132,10 @@ class SideslipFusion(Estimator):
         updates = []
         for m in self._modes:
             x_s, P_s = (m.kf.x, m.kf.P) if m.delayed is None else m.delayed.past(lag)
-            try:
-                # the IMM's mixing moves its filters without their stored samples, whose covariance the corrections
-                # of later fixes can then leave indefinite: such a fix is skipped, not applied with a negative NIS
-                np.linalg.cholesky(P_s)
-            except np.linalg.LinAlgError:
+            # the IMM's mixing moves its filters without their stored samples, whose covariance the corrections of
+            # later fixes can then leave indefinite: such a fix is skipped, not applied with a negative NIS (the raw
+            # LAPACK Cholesky: np.linalg.cholesky's checks cost three times the factorisation)
+            if _potrf(P_s, lower=1, clean=0)[1] != 0:
                 return None
             y, H, R = gnss_measurement(z, x_s, P_s, noise, acc, at)
             updates.append((y, H, R, H.dot(P_s).dot(H.T) + R))
@@ -144,7 +144,8 @@ class SideslipFusion(Estimator):
             nis = m.kf.update(y, H, R) if m.delayed is None else m.delayed.update(lag, y, H, R)
             self._model.bound(m.kf)
             nis_sum += nis
-            logs.append(-0.5 * (nis + math.log(max(np.linalg.det(S), 1e-300))))
+            if self._imm is not None:                   # the modes' likelihoods
+                logs.append(-0.5 * (nis + math.log(max(np.linalg.det(S), 1e-300))))
         if self._imm is not None:
             self._imm.update(logs, self._imm.probabilities)
         return nis_sum / len(self._modes)
@@ -235,8 +236,9 @@ class SideslipFusion(Estimator):
                 m.kf.P[Fs.VX, Fs.VX] = 0.1 ** 2
                 m.kf.P[Fs.VY, Fs.VY] = (0.05 * vw) ** 2
             self._started = True
-        inp = self._conditioner(u[I.AX_M], u[I.AY_M], u[I.YAW_RATE_M], u[I.DELTA_M], vw, self._x[_B_AX],
-                                self._x[_B_AY], self._x[_K_AY])
+        x = self._x            # the offsets as Python floats (arithmetic on NumPy scalars costs five times)
+        inp = self._conditioner(u[I.AX_M], u[I.AY_M], u[I.YAW_RATE_M], u[I.DELTA_M], vw, x.item(_B_AX), x.item(_B_AY),
+                                x.item(_K_AY))
         self._model.ln_mu_floor = self._conditioner.ln_mu_floor
         if self._acc_line is not None:
             self._acc_line.push(inp[:2])
@@ -248,7 +250,7 @@ class SideslipFusion(Estimator):
         else:
             self._history.append([inp, vx_ref, self._snapshot(), None])
         self._combine()
-        self._x_rate = inp.r_m - self._x[_B_R]
+        self._x_rate = inp.r_m - self._x.item(_B_R)
         self._latency.push(self._x_rate, self.beta)
         gnss = cfg.use_gnss and u[I.GPS_VALID] != 0.0
         if gnss and u[I.GPS_FRESH] != 0.0:
@@ -265,13 +267,13 @@ class SideslipFusion(Estimator):
     def _outputs(self, inp, vw: float, gnss: bool) -> None:
         """The estimate, its std and validity of the combined state."""
         cfg, x, P = self.config, self._x, self._P
-        x[_PSI] = math.remainder(x[_PSI], 2.0 * math.pi)
+        x[_PSI] = math.remainder(x.item(_PSI), 2.0 * math.pi)
         for m in self._modes:
-            m.kf.x[_PSI] = math.remainder(m.kf.x[_PSI], 2.0 * math.pi)
-        vx, vy = float(x[_VX]), float(x[_VY])
-        self.vx, self.vy, self.yaw_rate = vx, vy, float(inp.r_m - x[_B_R])
+            m.kf.x[_PSI] = math.remainder(m.kf.x.item(_PSI), 2.0 * math.pi)
+        vx, vy = x.item(_VX), x.item(_VY)
+        self.vx, self.vy, self.yaw_rate = vx, vy, inp.r_m - x.item(_B_R)
         self.beta = math.atan2(vy, vx) if vx > 0.1 else 0.0
-        std = beta_std(vx, vy, P[_VX, _VX], P[_VY, _VY], P[_VX, _VY])
+        std = beta_std(vx, vy, P.item(_VX, _VX), P.item(_VY, _VY), P.item(_VX, _VY))
         if gnss and self._heading_known:
             std *= self._gps_nis.inflation()
         self.beta_std = std
@@ -291,11 +293,14 @@ class SideslipFusion(Estimator):
 
     def _compute_extras(self) -> tuple:
         """The extra outputs of the current estimate (once per sample: the outputs read them every step)."""
-        x, g, prob = self._x, self._geometry, self.mode_probabilities
+        x, g = self._x.tolist(), self._geometry
         mu = math.exp(x[_LN_MU])
         c_f = axle_stiffness(g.c_f, g.c_f_lo, g.mu_lo, mu)[0] * math.exp(x[_LN_CF])
         c_r = axle_stiffness(g.c_r, g.c_r_lo, g.mu_lo, mu)[0] * math.exp(x[_LN_CR])
-        utilisation = sum(p * m.utilisation for p, m in zip(prob, self._modes))
-        return (math.remainder(float(x[_PSI]), 2.0 * math.pi), float(x[_B_R]), float(x[_B_AX]),
-                float(x[_B_AY]), float(x[_D_DELTA]), c_f, c_r, mu, min(float(utilisation), 1.0),
-                self._delay(), float(prob[1]) if len(prob) > 1 else 0.0, float(x[_K_AY]))
+        if self._imm is None:
+            utilisation, slide = self._modes[0].utilisation, 0.0
+        else:
+            prob = self.mode_probabilities
+            utilisation, slide = sum(p * m.utilisation for p, m in zip(prob, self._modes)), float(prob[1])
+        return (math.remainder(x[_PSI], 2.0 * math.pi), x[_B_R], x[_B_AX], x[_B_AY], x[_D_DELTA], c_f, c_r, mu,
+                min(float(utilisation), 1.0), self._delay(), slide, x[_K_AY])

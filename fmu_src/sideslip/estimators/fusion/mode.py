@@ -119,12 +119,13 @@ class FusionModel:
     def bound(self, kf: KalmanFilter) -> None:
         """Clamp the bounded states (module docstring)."""
         x = kf.x
+        values = x.tolist()                 # compared as Python floats: one conversion instead of one per state
         for i, lo, hi in self.bounds:
-            if x[i] < lo:
+            if values[i] < lo:
                 x[i] = lo
-            elif x[i] > hi:
+            elif values[i] > hi:
                 x[i] = hi
-        if x[_LN_MU] < self.ln_mu_floor:
+        if x.item(_LN_MU) < self.ln_mu_floor:
             x[_LN_MU] = self.ln_mu_floor
 
     def _huber_update(self, kf: KalmanFilter, m: ScalarMeasurement) -> None:
@@ -132,10 +133,11 @@ class FusionModel:
         y, row, r = m
         gate2 = self.config.pseudo_gate ** 2
         Ph = kf.P.dot(row)
-        var = float(row.dot(Ph)) + r
+        prior = float(row.dot(Ph))
+        var = prior + r
         if y * y > gate2 * var:
             r += y * y / gate2 - var
-        kf.update_scalar(y, row, r, Ph)
+        kf.update_scalar(y, row, r, Ph, prior)
 
     def _tire_updates(self, mode: Mode, inp: SampleInputs, vx_ref: float) -> float:
         """The two axles' tire updates (the sliding friction where an axle slides); their log-likelihood."""
@@ -167,8 +169,9 @@ class FusionModel:
                 y, row, rs = sliding_friction_measurement(axle, kf.x, x0, cfg.sliding_friction_std ** 2
                                                           * self.correlation)
                 Ph = kf.P.dot(row)
-                var = float(row.dot(Ph)) + rs
-                nis = kf.update_scalar(y, row, rs, Ph)
+                prior = float(row.dot(Ph))
+                var = prior + rs
+                nis = kf.update_scalar(y, row, rs, Ph, prior)
                 loglik -= 0.5 * (nis + math.log(2.0 * math.pi * var))
                 continue
             loglik += self._pseudo_update(mode, axle, h + float(axle.row.dot(kf.x - x0)), rate, monitor, soft,
@@ -200,5 +203,5 @@ class FusionModel:
         if self.robust and h * h > cfg.pseudo_gate ** 2 * var:   # Huber: weighed as if at the gate
             rr += h * h / cfg.pseudo_gate ** 2 - var
             var = h * h / cfg.pseudo_gate ** 2
-        nis = kf.update_scalar(-h, row, rr, Ph)
+        nis = kf.update_scalar(-h, row, rr, Ph, prior)
         return -0.5 * (nis + math.log(2.0 * math.pi * var))

@@ -20,7 +20,8 @@
 
 #define N_STATES 14
 #define N_OUTPUTS 24
-#define KERNEL_VERSION 2   /* 2: the binary holds the driver's step as well (driver_kernel.c) */
+#define KERNEL_VERSION 3   /* 2: the binary holds the driver's step as well (driver_kernel.c); 3: and the LQR's
+                              (sideslip/control/native/lqr_kernel.c) */
 
 /* State indices (sideslip.plant.dynamics.St). */
 enum { VX, VY, R, PHI, P, W_FL, W_FR, W_RL, W_RR, X, Y, PSI, AXF, AYF };
