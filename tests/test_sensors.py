@@ -160,3 +160,38 @@ def test_parse_windows():
     assert parse_windows("3-4, 1-2") == ((1.0, 2.0), (3.0, 4.0))
     with pytest.raises(ParameterError):
         parse_windows("a-b")
+
+
+def test_a_sample_draws_the_noise_stream_gauss_would_across_block_ends():
+    """``_draws(k)`` returns what ``k`` calls of ``_gauss`` return, also where a block of the stream ends."""
+    sliced, single = SensorSuite(SensorConfig(seed=3)), SensorSuite(SensorConfig(seed=3))
+    got, want = [], []
+    for k in [4, 1, 4, 2, 3] * 1200:                     # 16,800 values: four blocks and their ends
+        got += sliced._draws(k)
+        want += [single._gauss() for _ in range(k)]
+    assert got == want
+
+
+def test_no_sensor_sample_is_due_before_its_not_before_time():
+    """The bound that lets a step skip the samplers is conservative: wherever ``due`` would be true, the time is
+    at or after ``not_before`` (sample times and times just around them, rates from 1 Hz to 1 kHz)."""
+    from sideslip.plant.sensors import _Sampler
+
+    rng = np.random.default_rng(0)
+    for rate in (1.0, 5.0, 20.0, 100.0, 333.0, 1000.0):
+        for last in rng.integers(0, 10**6, 200):
+            probe = _Sampler(rate)
+            probe.last = int(last)
+            bound = probe.not_before()
+            for t in ((last + 1) / rate) * (1.0 + np.array([-1e-6, -1e-12, 0.0, 1e-15, 1e-9])):
+                if math.floor(t * rate + 1e-6) > last:
+                    assert t >= bound, (rate, last, t)
+    sensors = SensorSuite(SensorConfig(imu_rate=333.0, wheel_rate=100.0, steer_rate=50.0, mag_rate=75.0))
+    skipped = 0
+    for k in range(1, 3001):                             # in a run: a skipped step has no sampler due
+        t = k * 1e-3
+        if t < sensors._next_due:
+            skipped += 1
+            assert all(math.floor(t * s.rate + 1e-6) <= s.last for s in sensors._samplers), t
+        sensors.step(1e-3, *([0.1] * 13))
+    assert skipped > 1000

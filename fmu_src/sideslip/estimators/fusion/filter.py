@@ -134,7 +134,7 @@ class SideslipFusion(Estimator):
             x_s, P_s = (m.kf.x, m.kf.P) if m.delayed is None else m.delayed.past(lag)
             # the IMM's mixing moves its filters without their stored samples, whose covariance the corrections of
             # later fixes can then leave indefinite: such a fix is skipped, not applied with a negative NIS (the raw
-            # LAPACK Cholesky: np.linalg.cholesky's checks cost three times the factorisation)
+            # LAPACK Cholesky: np.linalg.cholesky's checks cost more than the factorisation)
             if _potrf(P_s, lower=1, clean=0)[1] != 0:
                 return None
             y, H, R = gnss_measurement(z, x_s, P_s, noise, acc, at)
@@ -236,7 +236,7 @@ class SideslipFusion(Estimator):
                 m.kf.P[Fs.VX, Fs.VX] = 0.1 ** 2
                 m.kf.P[Fs.VY, Fs.VY] = (0.05 * vw) ** 2
             self._started = True
-        x = self._x            # the offsets as Python floats (arithmetic on NumPy scalars costs five times)
+        x = self._x            # the offsets as Python floats: the sample's scalar arithmetic on NumPy scalars is slow
         inp = self._conditioner(u[I.AX_M], u[I.AY_M], u[I.YAW_RATE_M], u[I.DELTA_M], vw, x.item(_B_AX), x.item(_B_AY),
                                 x.item(_K_AY))
         self._model.ln_mu_floor = self._conditioner.ln_mu_floor
