@@ -53,9 +53,10 @@ DEFAULT_OUT = Path(os.environ.get("SIDESLIP_FMU_DIR") or Path("build") / "fmus")
 folder (a notebook or a script in another folder can share one build through the variable)."""
 SHIM_SOURCE = PACKAGE_DIR / "fmi" / "native" / "fmi2_status_shim.c"
 KERNEL_SOURCES = (*(PACKAGE_DIR / "plant" / "native" / f"{model}_kernel.c" for model in ("plant", "driver")),
-                  PACKAGE_DIR / "control" / "native" / "lqr_kernel.c")
-"""The plant's, the driver's and the LQR's compiled steps (:mod:`sideslip.plant.kernel`, one binary), built for each
-platform into the FMUs."""
+                  PACKAGE_DIR / "control" / "native" / "lqr_kernel.c",
+                  PACKAGE_DIR / "estimators" / "fusion" / "native" / "fusion_kernel.c")
+"""The plant's, the driver's and the LQR's compiled steps and SideslipFusion's tire pseudo-measurements
+(:mod:`sideslip.plant.kernel`, one binary), built for each platform into the FMUs."""
 KERNEL_MODULE = PACKAGE_DIR / "plant" / "kernel.py"
 FP_FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
 """The kernel computes the same doubles as its Python reference: IEEE arithmetic, no fused multiply-adds."""

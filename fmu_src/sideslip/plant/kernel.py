@@ -1,10 +1,12 @@
-"""The plant's, the driver's and the LQR controller's steps compiled from C (``native/plant_kernel.c``,
-``native/driver_kernel.c``, ``sideslip/control/native/lqr_kernel.c``: one binary), loaded with ctypes.
+"""The plant's, the driver's and the LQR controller's steps and SideslipFusion's tire pseudo-measurements compiled
+from C (``native/plant_kernel.c``, ``native/driver_kernel.c``, ``sideslip/control/native/lqr_kernel.c``,
+``sideslip/estimators/fusion/native/fusion_kernel.c``: one binary), loaded with ctypes.
 
 The pure-Python models (:mod:`sideslip.plant.dynamics` and :class:`~sideslip.plant.vehicle.VehiclePlant`,
-:class:`~sideslip.plant.driver.Driver`, :class:`~sideslip.control.dyc.LqrDycController`) are the reference; the C
-files repeat their arithmetic operation for operation, so both give the same doubles on one platform
-(``tests/test_plant_kernel.py``, ``tests/test_driver_kernel.py`` and ``tests/test_lqr_kernel.py`` check them equal
+:class:`~sideslip.plant.driver.Driver`, :class:`~sideslip.control.dyc.LqrDycController`,
+:func:`sideslip.estimators.fusion.models.axle_pseudo`) are the reference; the C files repeat their arithmetic
+operation for operation, so both give the same doubles on one platform (``tests/test_plant_kernel.py``,
+``tests/test_driver_kernel.py``, ``tests/test_lqr_kernel.py`` and ``tests/test_fusion_kernel.py`` check them equal
 to 1e-12, and bit-identical on Linux x86-64); the cost of each is in the Performance page.
 
 Plain C without the Python API, so one binary serves every Python version; ctypes, not a C extension, because
@@ -26,17 +28,21 @@ import struct
 import sys
 from pathlib import Path
 
-__all__ = ["CompiledStep", "PlantKernel", "DriverKernel", "LqrKernel", "available", "UNAVAILABLE", "LIBRARY_NAME", "PLATFORM",
-           "N_STATE", "N_INPUTS", "N_OUTPUTS"]
+__all__ = ["CompiledStep", "PlantKernel", "DriverKernel", "LqrKernel", "FusionKernel", "available", "UNAVAILABLE", "LIBRARY_NAME", "PLATFORM",
+           "N_STATE", "N_INPUTS", "N_OUTPUTS", "PLANT_IO"]
 
 LIBRARY_NAME = "sideslip_plant_kernel"
 """File name (without extension) of the binary an FMU carries."""
 PLATFORM = {"linux": "linux64", "win32": "win64"}.get(sys.platform)
 """This machine's FMI platform folder, where an FMU's kernel is."""
-KERNEL_VERSION = 3
+KERNEL_VERSION = 4
 """Interface version the binary must report (``sideslip_plant_kernel_version``)."""
 N_STATE, N_INPUTS, N_OUTPUTS = 15, 8, 24
 """The kernel's state (the plant's 14 states and the motors' torque difference), inputs and outputs."""
+PLANT_IO = N_STATE + N_INPUTS + 3 + N_OUTPUTS
+"""Values of one compiled plant step (plant_kernel.c ``IO_*``): the state, the inputs, the two cornering stiffnesses
+and the step, the outputs."""
+_PLANT_IN, _STATE, _PLANT_OUT = (struct.Struct(f"={n}d") for n in (PLANT_IO - N_OUTPUTS, N_STATE, N_OUTPUTS))
 
 
 def _candidates():
@@ -61,14 +67,14 @@ def _load():
         if version != KERNEL_VERSION:
             tried.append(f"{path.name}: interface version {version}, expected {KERNEL_VERSION}")
             continue
-        step = lib.sideslip_plant_step
-        vec = ctypes.POINTER(ctypes.c_double)
-        step.argtypes = [vec, vec, vec, ctypes.c_double, ctypes.c_double, ctypes.c_double, vec]
-        step.restype = ctypes.c_int
+        lib.sideslip_plant_step.argtypes = None                  # (constants, io): the fastest ctypes call
+        lib.sideslip_plant_step.restype = ctypes.c_int
         lib.sideslip_driver_step.argtypes = None                 # (byref(plan), io): the fastest ctypes call
         lib.sideslip_driver_step.restype = None
         lib.sideslip_lqr_step.argtypes = None                    # (byref(law), byref(design), io)
         lib.sideslip_lqr_step.restype = None
+        lib.sideslip_fusion_axles.argtypes = None                # (geometry, io, front row, rear row)
+        lib.sideslip_fusion_axles.restype = ctypes.c_int
         return lib, ""
     why = ("; ".join(tried) if tried
            else "no compiled plant kernel for this platform (built at install with a C compiler)")
@@ -130,10 +136,10 @@ class PlantKernel:
         size = _LIB.sideslip_plant_constants_size()
         if len(constants) != size:
             raise RuntimeError(f"the plant kernel takes {size} constants, got {len(constants)}")
+        if _LIB.sideslip_plant_io_size() != PLANT_IO:
+            raise RuntimeError("the plant kernel's layout is not this module's")
         self._k = (ctypes.c_double * size)(*constants)
-        self._state = (ctypes.c_double * N_STATE)()
-        self._in = (ctypes.c_double * N_INPUTS)()
-        self._out = (ctypes.c_double * N_OUTPUTS)()
+        self._io = (ctypes.c_double * PLANT_IO)()
         self._fn = _LIB.sideslip_plant_step
 
     def step(self, x, dT, inputs, caf: float, car: float, h: float):
@@ -160,15 +166,14 @@ class PlantKernel:
             State at the end of the step.
         dT : float
             Torque difference at the end of the step [N m].
-        outputs : list of float
+        outputs : tuple of float
             Outputs (:data:`sideslip.signals.PLANT_OUTPUTS` order).
         """
-        state = self._state
-        state[:14] = x
-        state[14] = dT
-        self._in[:] = inputs
-        n = self._fn(self._k, state, self._in, caf, car, h, self._out)
-        return n, state[:14], state[14], self._out[:]
+        io = self._io
+        _PLANT_IN.pack_into(io, 0, *x, dT, *inputs, caf, car, h)     # (struct moves the doubles faster than ctypes)
+        n = self._fn(self._k, io)
+        state = _STATE.unpack_from(io, 0)
+        return n, list(state[:-1]), state[-1], _PLANT_OUT.unpack_from(io, 8 * (PLANT_IO - N_OUTPUTS))
 
 
 _VEC = ctypes.POINTER(ctypes.c_double)
@@ -307,3 +312,60 @@ class LqrKernel:
         _LQR_IN.pack_into(io, 0, *values)           # (struct moves the doubles faster than ctypes' slices)
         self._fn(self._law_ref, entry[0], io)
         return _LQR_OUT.unpack_from(io, 8 * 8)
+
+
+FUSION_IO = 32
+"""Values of one compiled pair of tire pseudo-measurements (fusion_kernel.c ``IO_*``): the state's first ten, the
+sample's inputs, the utilisation limit, ten results."""
+_FUSION_IN, _FUSION_OUT = struct.Struct("=22d"), struct.Struct("=10d")
+_FUSION_RAISES = {1: (ZeroDivisionError, "float division by zero"), 2: (OverflowError, "math range error")}
+"""What the Python reference raises where the C function returns these codes."""
+
+
+class FusionKernel:
+    """SideslipFusion's compiled tire pseudo-measurements for one vehicle and state size: the geometry, the buffer
+    the C function reads and writes, and the two Jacobian rows it fills.
+
+    Parameters
+    ----------
+    geometry : sequence of float
+        :class:`sideslip.estimators.fusion.models.Geometry`'s values.
+    n : int
+        The filter's state size (the rows' length).
+
+    Raises
+    ------
+    RuntimeError
+        Without a binary (:func:`available`), or when the binary's layout is not this module's.
+    """
+
+    def __init__(self, geometry, n: int):
+        import numpy as np
+
+        if _LIB is None:
+            raise RuntimeError(UNAVAILABLE)
+        if (_LIB.sideslip_fusion_io_size() != FUSION_IO
+                or _LIB.sideslip_fusion_geometry_size() != len(geometry)):
+            raise RuntimeError("the fusion kernel's layout is not this module's")
+        self._args = (tuple(geometry), n)
+        self._geometry = (ctypes.c_double * len(geometry))(*geometry)
+        self._io = (ctypes.c_double * FUSION_IO)()
+        self.rows = tuple(np.zeros((2, n)))
+        """The front and the rear Jacobian row of the last call (overwritten by the next)."""
+        self._pointers = tuple(ctypes.c_void_p(row.ctypes.data) for row in self.rows)
+        self._fn = _LIB.sideslip_fusion_axles
+
+    def __reduce__(self):                     # a copy has buffers (and row pointers) of its own
+        return FusionKernel, self._args
+
+    def axles(self, x, inputs, u_max: float) -> tuple:
+        """The two axles' ``residual, slip, utilisation, slip_at_max, capacity_slope`` (front, then rear) of the state
+        ``x`` and the sample's ``inputs`` (:class:`~sideslip.estimators.fusion.models.SampleInputs`), then their rows
+        (:attr:`rows`; :func:`sideslip.estimators.fusion.models.axle_pseudo`)."""
+        io = self._io
+        _FUSION_IN.pack_into(io, 0, *x[:10].tolist(), *inputs, u_max)
+        code = self._fn(self._geometry, io, *self._pointers)
+        if code:
+            error, message = _FUSION_RAISES[code]
+            raise error(message)
+        return _FUSION_OUT.unpack_from(io, 8 * (FUSION_IO - 10)) + self.rows

@@ -32,9 +32,10 @@ import math
 
 import numpy as np
 
+from ...plant import kernel
 from ..kalman import DelayedMeasurements, InnovationMonitor, KalmanFilter
 from .friction_test import friction_test
-from .models import (Geometry, SampleInputs, ScalarMeasurement, axle_pseudo, kinematic_step,
+from .models import (AxlePseudo, Geometry, SampleInputs, ScalarMeasurement, axle_pseudo, kinematic_step,
                      sliding_friction_measurement, wheel_measurement)
 from .state import Fs
 
@@ -91,7 +92,7 @@ class FusionModel:
     """
 
     __slots__ = ("config", "ts", "geometry", "front_undriven", "q", "p_cap", "bounds", "robust", "correlation",
-                 "ln_mu_floor", "_ln_mu0", "_inv_mu_std", "_inv_c_std")
+                 "ln_mu_floor", "_ln_mu0", "_inv_mu_std", "_inv_c_std", "_compiled_axles")
 
     def __init__(self, config, geometry: Geometry, front_undriven: bool, q: np.ndarray, p_cap: np.ndarray,
                  bounds: tuple, robust: bool):
@@ -101,6 +102,18 @@ class FusionModel:
         self.correlation = max(cfg.slip_correlation_time / cfg.Ts, 1.0) if robust else 1.0
         self.ln_mu_floor = math.log(cfg.mu_min)        # the road carries what the car is measured to do (the inputs')
         self._ln_mu0, self._inv_mu_std, self._inv_c_std = math.log(cfg.mu0), 1.0 / cfg.mu_std0, 1.0 / cfg.stiffness_std0
+        # the tire pseudo-measurements compiled where they run (the same doubles as axle_pseudo)
+        self._compiled_axles = (kernel.FusionKernel(geometry, len(q)).axles if cfg.compiled and kernel.available()
+                                else None)
+
+    def axles(self, x: np.ndarray, inp: SampleInputs) -> tuple:
+        """:func:`~sideslip.estimators.fusion.models.axle_pseudo` of the state ``x``, compiled where it runs (its
+        rows are then valid until the next call)."""
+        if self._compiled_axles is None:
+            return axle_pseudo(x, inp, self.geometry, self.config.utilisation_max)
+        h_f, a_f, u_f, s_f, g_f, h_r, a_r, u_r, s_r, g_r, front, rear = self._compiled_axles(
+            x, inp, self.config.utilisation_max)
+        return AxlePseudo(h_f, front, a_f, u_f, s_f, g_f), AxlePseudo(h_r, rear, a_r, u_r, s_r, g_r)
 
     def advance(self, mode: Mode, inp: SampleInputs, vx_ref: float) -> float:
         """Time update and the wheel-speed and tire updates of one filter for one sample; returns the log-likelihood
@@ -143,11 +156,11 @@ class FusionModel:
         """The two axles' tire updates (the sliding friction where an axle slides); their log-likelihood."""
         cfg, kf = self.config, mode.kf
         x0 = kf.x
-        axles = axle_pseudo(x0, inp, self.geometry, cfg.utilisation_max)
+        axles = self.axles(x0, inp)
         if cfg.friction_test > 0.0 and friction_test(mode, kf, x0, axles, inp, vx_ref, cfg, self.geometry,
                                                      self.correlation):
             x0 = kf.x
-            axles = axle_pseudo(x0, inp, self.geometry, cfg.utilisation_max)
+            axles = self.axles(x0, inp)
         front, rear = axles
         rates = ((front.slip - mode.slip[0]) / self.ts, (rear.slip - mode.slip[1]) / self.ts)
         mode.slip = (front.slip, rear.slip)

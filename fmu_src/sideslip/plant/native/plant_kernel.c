@@ -20,8 +20,8 @@
 
 #define N_STATES 14
 #define N_OUTPUTS 24
-#define KERNEL_VERSION 3   /* 2: the binary holds the driver's step as well (driver_kernel.c); 3: and the LQR's
-                              (sideslip/control/native/lqr_kernel.c) */
+#define KERNEL_VERSION 4   /* 2: the binary holds the driver's step as well (driver_kernel.c); 3: and the LQR's
+                              (sideslip/control/native/lqr_kernel.c); 4: the plant's values in one buffer */
 
 /* State indices (sideslip.plant.dynamics.St). */
 enum { VX, VY, R, PHI, P, W_FL, W_FR, W_RL, W_RR, X, Y, PSI, AXF, AYF };
@@ -341,20 +341,23 @@ KERNEL_API int sideslip_plant_kernel_version(void) { return KERNEL_VERSION; }
 
 KERNEL_API int sideslip_plant_constants_size(void) { return (int)(sizeof(Constants) / sizeof(double)); }
 
-/*
- * One communication step of VehiclePlant.step after its input check and clock tick.
- *   k       constants (Constants)
- *   state   N_STATES states, then the motors' torque difference dT_motor; advanced in place
- *   in      the plant's inputs: delta_f, T_drive, T_brake, Mz_dyc, mu, bank_angle, F_wind_y, M_wind_z
- *   caf/car the tires' cornering stiffness on this friction (VehicleParams.cornering_stiffness)
- *   h       communication step [s] (> 0)
- *   out     N_OUTPUTS outputs at the end of the step
- * Returns the number of RK4 sub-steps taken.
- */
-KERNEL_API int sideslip_plant_step(const double *kp, double *state, const double *in, double caf, double car,
-                                   double h, double *out)
+/* The values of one step (sideslip/plant/kernel.py PLANT_IO): the state (the plant's N_STATES states, then the
+ * motors' torque difference dT_motor), advanced in place; the plant's inputs delta_f, T_drive, T_brake, Mz_dyc, mu,
+ * bank_angle, F_wind_y, M_wind_z; the tires' cornering stiffness on this friction (front, rear:
+ * VehicleParams.cornering_stiffness); the communication step h [s] (> 0); the N_OUTPUTS outputs at the end of the
+ * step, written.  One buffer, so that the call passes two pointers (the cheapest ctypes call). */
+enum { IO_STATE = 0, IO_IN = N_STATES + 1, IO_CAF = IO_IN + 8, IO_CAR, IO_H, IO_OUT, IO_SIZE = IO_OUT + N_OUTPUTS };
+
+KERNEL_API int sideslip_plant_io_size(void) { return IO_SIZE; }
+
+/* One communication step of VehiclePlant.step after its input check and clock tick: constants k (Constants),
+ * io as above.  Returns the number of RK4 sub-steps taken. */
+KERNEL_API int sideslip_plant_step(const double *kp, double *io)
 {
     const Constants *k = (const Constants *)kp;
+    double *state = io + IO_STATE, *out = io + IO_OUT;
+    const double *in = io + IO_IN;
+    double caf = io[IO_CAF], car = io[IO_CAR], h = io[IO_H];
     Held u;
     double x[N_STATES], k1[N_STATES], k2[N_STATES], k3[N_STATES], k4[N_STATES], tmp[N_STATES];
     double lim = k->motor_T_max, dT_cmd = in[3] / k->motor_arm, dT = state[N_STATES];
