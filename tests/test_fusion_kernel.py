@@ -17,8 +17,12 @@ import zipfile
 import numpy as np
 import pytest
 
+from sideslip import geomagnetic
+from sideslip.constants import GRAVITY
 from sideslip.estimators import ESTIMATORS
-from sideslip.estimators.fusion import Fs, Geometry, SampleInputs, axle_pseudo
+from sideslip.estimators.fusion import Fs, Geometry, SampleInputs, axle_pseudo, kinematic_step, wheel_measurement
+from sideslip.estimators.fusion.magnetometer import MagnetometerHeading
+from sideslip.geomagnetic import earth_field
 from sideslip.params import build
 from sideslip.plant import kernel
 from sideslip.scenarios import get_scenario, scenario_params
@@ -91,26 +95,26 @@ def _random_case(rng, k: int):
     fz = rng.uniform(500.0, 9000.0, 2)
     fy = rng.normal(0.0, 1.0, 2) * fz * math.exp(x[Fs.LN_MU]) * (2.0 if k % 5 == 0 else 0.7)
     fx = rng.normal(0.0, 0.5, 2) * fz * (1.5 if k % 3 == 0 else 0.3)
-    inp = SampleInputs(0.0, 0.0, rng.normal(0.0, 0.5), rng.normal(0.0, 0.1), 20.0, fy[0], fy[1], fz[0], fz[1],
-                       fx[0], fx[1])
+    inp = SampleInputs(*map(float, (0.0, 0.0, rng.normal(0.0, 0.5), rng.normal(0.0, 0.1), 20.0, fy[0], fy[1], fz[0],
+                                    fz[1], fx[0], fx[1])))          # Python floats, as the filter's
     return x, inp, rng.choice([0.5, 0.9, 0.95, 0.999])
 
 
 def _outcome(fn):
     try:
         return fn()
-    except (ZeroDivisionError, OverflowError) as exc:
+    except (ZeroDivisionError, OverflowError, ValueError) as exc:
         return type(exc)
 
 
 def test_the_compiled_tire_model_gives_the_reference_doubles_and_raises_where_it_raises():
     rng = np.random.default_rng(11)
-    kern = kernel.FusionKernel(GEOMETRY, len(Fs))
+    kern = _kernel()
     refs, gots = [], []
     for k in range(3000):
         x, inp, u_max = _random_case(rng, k)
         ref = axle_pseudo(x, inp, GEOMETRY, u_max)
-        got = kern.axles(x, inp, u_max)
+        got = _kernel(u_max=u_max).axles(x, inp) if u_max != 0.95 else kern.axles(x, inp)
         for axle, values, row in zip(ref, (got[:5], got[5:10]), got[10:]):
             refs.append([axle.residual, axle.slip, axle.utilisation, axle.slip_at_max, axle.capacity_slope,
                          *axle.row])
@@ -127,7 +131,7 @@ def test_the_compiled_tire_model_gives_the_reference_doubles_and_raises_where_it
         for i, v in state.items():
             xs[i] = v
         ref = _outcome(lambda: axle_pseudo(xs, inp, geometry, 0.95))
-        got = _outcome(lambda: kernel.FusionKernel(geometry, len(Fs)).axles(xs, inp, 0.95))
+        got = _outcome(lambda: _kernel(geometry).axles(xs, inp))
         assert isinstance(ref, type) and got is ref
 
 
@@ -169,3 +173,74 @@ def test_the_fusion_fmu_runs_compiled_and_gives_the_reference(fmu_dir):
     reference = _fmu_run(fmu_dir, 0, signals)
     assert np.ptp(reference[0]) > 1e-3                     # beta_hat moves
     _assert_same(compiled, reference)
+
+
+def _kernel(geometry=GEOMETRY, front_undriven=1.0, n=len(Fs), ts=0.01, u_max=0.95):
+    cfg = FUSION.config_class()
+    return kernel.FusionKernel((*geometry, GRAVITY, ts, u_max, front_undriven, cfg.mag_norm_gate,
+                                cfg.mag_declination, cfg.mag_tilt_std, cfg.mag_roll_error, cfg.sigma_mag,
+                                cfg.mag_tilt_correlation_time, cfg.mag_gate), n)
+
+
+def test_the_compiled_kinematic_step_and_wheel_speeds_give_the_reference_doubles():
+    rng = np.random.default_rng(5)
+    for n in (len(Fs) - 2, len(Fs)):
+        for front in (0.0, 1.0):
+            kern = _kernel(front_undriven=front, n=n)
+            refs, gots = ([], []), ([], [])          # the kinematic step's, the wheels'
+            for k in range(500):
+                x = rng.normal(0.0, 1.0, n) * np.r_[20.0, 2.0, 3.0, 0.01, 0.2, 0.2, 0.01, 0.3, 0.3, 1.0, 0.02,
+                                                     0.3, 0.1, 0.1, 0.1][:n]
+                x[Fs.LN_MU] = rng.uniform(-3.0, 0.5) if k % 50 else 800.0           # exp overflows: both raise
+                inp = SampleInputs(*map(float, (rng.normal(0.0, 3.0), rng.normal(0.0, 5.0), rng.normal(0.0, 0.5),
+                                                rng.normal(0.0, 0.4) * (4.0 if k % 7 == 0 else 1.0),
+                                                rng.uniform(-1.0, 40.0), 0.0, 0.0, 1.0, 1.0, 0.0, 0.0)))
+                xp, F = kinematic_step(x, inp.ax, inp.ay, inp.r_m, 0.01)
+                xp_c, F_c = kern.kinematic(x, inp.ax, inp.ay, inp.r_m)
+                refs[0].append(np.r_[xp, F.ravel()])
+                gots[0].append(np.r_[xp_c, F_c.ravel()])
+                ref = _outcome(lambda: wheel_measurement(x, inp, bool(front)))
+                got = _outcome(lambda: kern.wheel(x, inp.delta, inp.v_wheel, inp.ax))
+                if isinstance(ref, type):
+                    assert got is ref
+                    continue
+                refs[1].append(np.r_[ref.innovation, ref.variance, ref.row])
+                gots[1].append(np.r_[got[0], got[2], got[1]])
+                if EXACT:                                  # the zeros' signs too (the front rows' cos(delta) < 0)
+                    assert np.array_equal(np.signbit(got[1]), np.signbit(ref.row))
+            for got_k, ref_k in zip(gots, refs):
+                _assert_same(np.array(got_k), np.array(ref_k))
+
+
+def test_the_compiled_magnetometer_heading_gives_the_reference_doubles():
+    """Readings within and beyond the norm gate, a level and a tilted car on a bank, headings across +-pi, a field
+    without a horizontal part, states that pass and fail the innovation gate, and readings held for several
+    samples."""
+    rng = np.random.default_rng(9)
+    cfg = FUSION.config_class()
+    kern = _kernel()
+    seen = set()
+    for k in range(3000):
+        heading = rng.uniform(-4.0, 4.0)
+        field = earth_field(geomagnetic.INCLINATION, cfg.mag_declination)
+        c, s = math.cos(heading), math.sin(heading)
+        mag = np.array([c * field[0] + s * field[1], -s * field[0] + c * field[1], field[2]])
+        mag = mag * rng.uniform(0.85, 1.15) + rng.normal(0.0, 0.01, 3)
+        if k % 97 == 0:
+            mag = np.array([0.0, 0.0, 1.0])                  # pointing straight down: no horizontal field
+        x = np.zeros(len(Fs))
+        x[Fs.PSI] = heading + rng.normal(0.0, 0.02 if k % 3 else 0.5)
+        x[Fs.G_Y], x[Fs.B_MAG] = rng.normal(0.0, 2.0), rng.normal(0.0, 0.01)
+        P = np.diag(rng.uniform(1e-6, 1e-2, len(Fs)))
+        P[Fs.PSI, Fs.B_MAG] = P[Fs.B_MAG, Fs.PSI] = 0.5 * math.sqrt(P[Fs.PSI, Fs.PSI] * P[Fs.B_MAG, Fs.B_MAG])
+        phi, age = float(rng.normal(0.0, 0.05)), int(rng.integers(1, 12))
+        ref = MagnetometerHeading(cfg, 0.01)._reading(tuple(mag.tolist()), phi, x, P, age)
+        got = kern.heading(tuple(mag.tolist()), phi, x, P, age)
+        seen.add(ref[0])
+        if ref[0] == 0.0:
+            assert got[0] == 0.0
+            continue
+        _assert_same(np.array(got), np.array(ref))
+    assert seen == {0.0, 1.0, 2.0}
+    assert _outcome(lambda: kern.heading((1e200, 0.0, 0.0), 0.0, x, P, 1)) is OverflowError
+    assert _outcome(lambda: MagnetometerHeading(cfg, 0.01)._reading((1e200, 0.0, 0.0), 0.0, x, P, 1)) is OverflowError

@@ -1,11 +1,11 @@
-"""The plant's, the driver's and the LQR controller's steps and SideslipFusion's tire pseudo-measurements compiled
-from C (``native/plant_kernel.c``, ``native/driver_kernel.c``, ``sideslip/control/native/lqr_kernel.c``,
+"""The plant's, the driver's and the LQR controller's steps and SideslipFusion's scalar models compiled from C
+(``native/plant_kernel.c``, ``native/driver_kernel.c``, ``sideslip/control/native/lqr_kernel.c``,
 ``sideslip/estimators/fusion/native/fusion_kernel.c``: one binary), loaded with ctypes.
 
 The pure-Python models (:mod:`sideslip.plant.dynamics` and :class:`~sideslip.plant.vehicle.VehiclePlant`,
-:class:`~sideslip.plant.driver.Driver`, :class:`~sideslip.control.dyc.LqrDycController`,
-:func:`sideslip.estimators.fusion.models.axle_pseudo`) are the reference; the C files repeat their arithmetic
-operation for operation, so both give the same doubles on one platform (``tests/test_plant_kernel.py``,
+:class:`~sideslip.plant.driver.Driver`, :class:`~sideslip.control.dyc.LqrDycController`, SideslipFusion's kinematic
+step, wheel-speed and tire measurements and magnetometer heading) are the reference; the C files repeat their
+arithmetic operation for operation, so both give the same doubles on one platform (``tests/test_plant_kernel.py``,
 ``tests/test_driver_kernel.py``, ``tests/test_lqr_kernel.py`` and ``tests/test_fusion_kernel.py`` check them equal
 to 1e-12, and bit-identical on Linux x86-64); the cost of each is in the Performance page.
 
@@ -73,8 +73,9 @@ def _load():
         lib.sideslip_driver_step.restype = None
         lib.sideslip_lqr_step.argtypes = None                    # (byref(law), byref(design), io)
         lib.sideslip_lqr_step.restype = None
-        lib.sideslip_fusion_axles.argtypes = None                # (geometry, io, front row, rear row)
-        lib.sideslip_fusion_axles.restype = ctypes.c_int
+        for name in ("kinematic", "wheel", "axles", "heading"):    # (constants, io[, arrays, n]): codes
+            getattr(lib, f"sideslip_fusion_{name}").argtypes = None
+            getattr(lib, f"sideslip_fusion_{name}").restype = ctypes.c_int
         return lib, ""
     why = ("; ".join(tried) if tried
            else "no compiled plant kernel for this platform (built at install with a C compiler)")
@@ -314,24 +315,39 @@ class LqrKernel:
         return _LQR_OUT.unpack_from(io, 8 * 8)
 
 
-FUSION_IO = 32
-"""Values of one compiled pair of tire pseudo-measurements (fusion_kernel.c ``IO_*``): the state's first ten, the
-sample's inputs, the utilisation limit, ten results."""
-_FUSION_IN, _FUSION_OUT = struct.Struct("=22d"), struct.Struct("=10d")
-_FUSION_RAISES = {1: (ZeroDivisionError, "float division by zero"), 2: (OverflowError, "math range error")}
-"""What the Python reference raises where the C function returns these codes."""
+
+_FUSION_FUNCTIONS = ("kinematic", "wheel", "axles", "heading")
+"""The compiled functions of SideslipFusion (fusion_kernel.c), in the order ``sideslip_fusion_io_size`` numbers them."""
+FUSION_IO = {"kinematic": (16, 3), "wheel": (6, 2), "axles": (21, 10), "heading": (12, 4)}
+"""Values in and out of each compiled SideslipFusion function (fusion_kernel.c ``*_SIZE``)."""
+_FUSION_IN = {name: struct.Struct(f"={n_in}d") for name, (n_in, _) in FUSION_IO.items()}
+_FUSION_OUT = {name: struct.Struct(f"={n_out}d") for name, (_, n_out) in FUSION_IO.items()}
+_FUSION_RAISES = {1: (ZeroDivisionError, "float division by zero"), 2: (OverflowError, "math range error"),
+                  3: (ValueError, "math domain error")}
+"""What the Python reference raises where a C function returns these codes."""
+_VX, _PSI, _LN_MU, _E_W, _G_Y, _B_MAG = 0, 2, 9, 10, 11, 14
+"""SideslipFusion's state indices the functions read (``sideslip.estimators.fusion.state.Fs``)."""
+
+
+def _raise(code: int):
+    error, message = _FUSION_RAISES[code]
+    raise error(message)
 
 
 class FusionKernel:
-    """SideslipFusion's compiled tire pseudo-measurements for one vehicle and state size: the geometry, the buffer
-    the C function reads and writes, and the two Jacobian rows it fills.
+    """SideslipFusion's compiled scalar models for one estimator: its constants, the buffer the C functions read and
+    write, and the arrays they fill (Jacobian rows and the transition matrix, overwritten by the next call).
 
     Parameters
     ----------
-    geometry : sequence of float
-        :class:`sideslip.estimators.fusion.models.Geometry`'s values.
+    constants : sequence of float
+        The C ``Constants`` struct's values (fusion_kernel.c): the vehicle file's axles
+        (:class:`sideslip.estimators.fusion.models.Geometry`), the gravity, the sample period, the utilisation limit,
+        1.0 where the undriven wheels are the front ones, and the magnetometer's ``mag_norm_gate``,
+        ``mag_declination``, ``mag_tilt_std``, ``mag_roll_error``, ``sigma_mag``, ``mag_tilt_correlation_time``,
+        ``mag_gate``.
     n : int
-        The filter's state size (the rows' length).
+        The filter's state size.
 
     Raises
     ------
@@ -339,33 +355,74 @@ class FusionKernel:
         Without a binary (:func:`available`), or when the binary's layout is not this module's.
     """
 
-    def __init__(self, geometry, n: int):
+    def __init__(self, constants, n: int):
         import numpy as np
 
         if _LIB is None:
             raise RuntimeError(UNAVAILABLE)
-        if (_LIB.sideslip_fusion_io_size() != FUSION_IO
-                or _LIB.sideslip_fusion_geometry_size() != len(geometry)):
+        if (_LIB.sideslip_fusion_constants_size() != len(constants)
+                or any(_LIB.sideslip_fusion_io_size(i) != sum(FUSION_IO[name])
+                       for i, name in enumerate(_FUSION_FUNCTIONS))):
             raise RuntimeError("the fusion kernel's layout is not this module's")
-        self._args = (tuple(geometry), n)
-        self._geometry = (ctypes.c_double * len(geometry))(*geometry)
-        self._io = (ctypes.c_double * FUSION_IO)()
-        self.rows = tuple(np.zeros((2, n)))
-        """The front and the rear Jacobian row of the last call (overwritten by the next)."""
-        self._pointers = tuple(ctypes.c_void_p(row.ctypes.data) for row in self.rows)
-        self._fn = _LIB.sideslip_fusion_axles
+        self._args = (tuple(constants), n)
+        self._k = (ctypes.c_double * len(constants))(*constants)
+        self._io = (ctypes.c_double * max(map(sum, FUSION_IO.values())))()
+        self._n = n
+        rows = np.zeros((3, n))
+        self.rows = (rows[0], rows[1])
+        """The front and the rear tire pseudo-measurement's Jacobian row of the last :meth:`axles`."""
+        self.wheel_row = rows[2]
+        """The wheel-speed measurement's Jacobian row of the last :meth:`wheel`."""
+        self.F = np.eye(n)
+        """The kinematic model's Jacobian of the last :meth:`kinematic`."""
+        self._rows_p = tuple(ctypes.c_void_p(row.ctypes.data) for row in rows)
+        self._F_p = ctypes.c_void_p(self.F.ctypes.data)
+        self._kinematic, self._wheel, self._axles, self._heading = (
+            getattr(_LIB, f"sideslip_fusion_{name}") for name in _FUSION_FUNCTIONS)
 
-    def __reduce__(self):                     # a copy has buffers (and row pointers) of its own
+    def __reduce__(self):                     # a copy has buffers (and their pointers) of its own
         return FusionKernel, self._args
 
-    def axles(self, x, inputs, u_max: float) -> tuple:
+    def kinematic(self, x, ax: float, ay: float, r_m: float) -> tuple:
+        """The predicted state and the Jacobian (:attr:`F`) of
+        :func:`sideslip.estimators.fusion.models.kinematic_step`."""
+        io = self._io
+        _FUSION_IN["kinematic"].pack_into(io, 0, *x[:13].tolist(), ax, ay, r_m)
+        self._kinematic(self._k, io, self._F_p, self._n)
+        xp = x.copy()
+        xp[:3] = _FUSION_OUT["kinematic"].unpack_from(io, 8 * 16)
+        return xp, self.F
+
+    def wheel(self, x, delta: float, v_wheel: float, ax: float) -> tuple:
+        """The innovation, the Jacobian row (:attr:`wheel_row`) and the noise variance of
+        :func:`sideslip.estimators.fusion.models.wheel_measurement`."""
+        io = self._io
+        _FUSION_IN["wheel"].pack_into(io, 0, x.item(_VX), x.item(_E_W), x.item(_LN_MU), delta, v_wheel, ax)
+        code = self._wheel(self._k, io, self._rows_p[2], self._n)
+        if code:
+            _raise(code)
+        innovation, variance = _FUSION_OUT["wheel"].unpack_from(io, 8 * 6)
+        return innovation, self.wheel_row, variance
+
+    def axles(self, x, inputs) -> tuple:
         """The two axles' ``residual, slip, utilisation, slip_at_max, capacity_slope`` (front, then rear) of the state
         ``x`` and the sample's ``inputs`` (:class:`~sideslip.estimators.fusion.models.SampleInputs`), then their rows
         (:attr:`rows`; :func:`sideslip.estimators.fusion.models.axle_pseudo`)."""
         io = self._io
-        _FUSION_IN.pack_into(io, 0, *x[:10].tolist(), *inputs, u_max)
-        code = self._fn(self._geometry, io, *self._pointers)
+        _FUSION_IN["axles"].pack_into(io, 0, *x[:10].tolist(), *inputs)
+        code = self._axles(self._k, io, *self._rows_p[:2])
         if code:
-            error, message = _FUSION_RAISES[code]
-            raise error(message)
-        return _FUSION_OUT.unpack_from(io, 8 * (FUSION_IO - 10)) + self.rows
+            _raise(code)
+        return _FUSION_OUT["axles"].unpack_from(io, 8 * 21) + self.rows
+
+    def heading(self, mag, phi: float, x, P, age: int) -> tuple:
+        """What a new magnetometer reading gives (0: nothing; 1: its NIS only; 2: a heading), the heading [rad], its
+        variance [rad2] and its NIS (:meth:`sideslip.estimators.fusion.magnetometer.MagnetometerHeading.measure`)."""
+        io = self._io
+        _FUSION_IN["heading"].pack_into(io, 0, *mag, phi, x.item(_G_Y), x.item(_PSI), x.item(_B_MAG),
+                                        P.item(_G_Y, _G_Y), P.item(_PSI, _PSI), P.item(_B_MAG, _B_MAG),
+                                        P.item(_PSI, _B_MAG), age)
+        code = self._heading(self._k, io)
+        if code:
+            _raise(code)
+        return _FUSION_OUT["heading"].unpack_from(io, 8 * 12)

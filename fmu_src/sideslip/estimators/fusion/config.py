@@ -160,8 +160,9 @@ class SideslipFusionConfig(EstimatorConfig, GpsLatencyConfig):
     valid_std_max: float = valid_std_max_param(0.03)
     valid_hold: float = valid_hold_param(0.5)
     nis_limit: float = nis_limit_param(25.0)
-    compiled: int = param(1, "Dimensionless", "Tire pseudo-measurements: 1 compiled C where the FMU carries it for "
-                          "this platform (the same doubles, faster), 0 the pure-Python reference", choices=(0, 1))
+    compiled: int = param(1, "Dimensionless", "Scalar models (kinematic step, wheel-speed and tire measurements, "
+                          "magnetometer heading): 1 compiled C where the FMU carries it for this platform (the same "
+                          "doubles, faster), 0 the pure-Python reference", choices=(0, 1))
 
     def __post_init__(self):
         super().__post_init__()

@@ -7,7 +7,9 @@ from collections import deque
 import numpy as np
 from scipy.linalg.lapack import dpotrf as _potrf
 
+from ...constants import GRAVITY
 from ...params import parse_bool
+from ...plant import kernel
 from ...signals import WHEEL_SPEEDS_M
 from ..base import Estimator, ValidityGate, beta_std, input_enum
 from ..delay import DelayLine, GpsLatency
@@ -64,8 +66,14 @@ class SideslipFusion(Estimator):
         self._acc_line = DelayLine(history, 2) if cfg.delay_state else None
         # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
         # whose likelihoods need the per-sample (white) noise
+        # the scalar models compiled where they run (the same doubles as the Python's)
+        compiled = (kernel.FusionKernel((*self._geometry, GRAVITY, ts, cfg.utilisation_max,
+                                         float(v.drive_split_front <= 0.0), cfg.mag_norm_gate, cfg.mag_declination,
+                                         cfg.mag_tilt_std, cfg.mag_roll_error, cfg.sigma_mag,
+                                         cfg.mag_tilt_correlation_time, cfg.mag_gate), len(x0))
+                    if cfg.compiled and kernel.available() else None)
         self._model = FusionModel(cfg, self._geometry, v.drive_split_front <= 0.0, q, p_cap, bounds,
-                                  robust=cfg.formulation == EKF)
+                                  robust=cfg.formulation == EKF, compiled=compiled)
         # the samples a delayed fix needs: the filters' own (extrapolation) or the inputs and snapshots (re-run)
         self._history = None if cfg.fix_extrapolation else deque(maxlen=history)
         per_filter = history if cfg.fix_extrapolation else 0
@@ -81,7 +89,7 @@ class SideslipFusion(Estimator):
                                    min(cfg.max_delay, 0.5))
         self._gps_nis = InnovationMonitor(10, cfg.nis_limit)
         self._gate = ValidityGate(cfg.valid_std_max, cfg.valid_hold)
-        self._magnetometer = MagnetometerHeading(cfg, ts)
+        self._magnetometer = MagnetometerHeading(cfg, ts, compiled)
         self._x_rate = 0.0
         self._started = False
         self._extra_values = self._compute_extras()

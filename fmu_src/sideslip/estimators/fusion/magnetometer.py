@@ -49,16 +49,20 @@ class MagnetometerHeading:
         The ``mag_*`` and ``sigma_mag`` parameters.
     ts : float
         Sample period [s].
+    compiled : sideslip.plant.kernel.FusionKernel, optional
+        The compiled reading (the same doubles as :meth:`_reading`); None: the Python.
     """
 
-    __slots__ = ("config", "ts", "window", "nis", "off", "_last", "_age")
+    __slots__ = ("config", "ts", "window", "nis", "off", "_last", "_age", "_compiled")
 
-    def __init__(self, config, ts: float):
+    def __init__(self, config, ts: float, compiled=None):
         self.config, self.ts = config, ts
         self.window = max(int(round(1.0 / ts)), 1)
         self.nis = InnovationMonitor(self.window, config.mag_nis_limit)
         self.off = False                 # the window found the readings inconsistent
         self._last, self._age = None, 0
+        # a bound method, not the kernel: an FMU state takes it from its template
+        self._compiled = None if compiled is None else compiled.heading
 
     def measure(self, mag: tuple, phi: float, x, P) -> HeadingMeasurement | None:
         """The heading of the reading ``mag`` (normalised field, sensor frame) at the roll model's roll ``phi``
@@ -70,24 +74,14 @@ class MagnetometerHeading:
             return None
         self._last = mag
         age, self._age = self._age, 0
-        if not abs(math.sqrt(mag[0] ** 2 + mag[1] ** 2 + mag[2] ** 2) - 1.0) <= cfg.mag_norm_gate:
-            return None                                 # disturbed (or not a number)
-        # the body's tilt: the roll model's roll on the road plus the road's bank (the state's gravity term)
-        bank = math.asin(max(-0.5, min(float(x[_G_Y]) / GRAVITY, 0.5)))
-        psi_m, dpsi_dtilt, h2 = tilt_compensated_heading(mag, phi + bank, cfg.mag_declination)
-        if h2 < 1e-4:                                   # no horizontal field to point with
+        what, psi_m, r, nis = (self._reading(mag, phi, x, P, age) if self._compiled is None
+                               else self._compiled(mag, phi, x, P, age))
+        if what == 0.0:
             return None
-        # the tilt's error: the roll model's, the bank estimate's (its state's std) and the rest (pitch)
-        tilt_var = (cfg.mag_tilt_std + cfg.mag_roll_error * abs(phi)) ** 2 + P.item(_G_Y, _G_Y) / GRAVITY ** 2
-        # it lasts (a roll model wrong in a turn, a bank): its share counts once per correlation time
-        r = cfg.sigma_mag ** 2 / h2 + dpsi_dtilt ** 2 * tilt_var * max(cfg.mag_tilt_correlation_time
-                                                                        / (age * self.ts), 1.0)
-        prior = P.item(_PSI, _PSI) + P.item(_B_MAG, _B_MAG) + 2.0 * P.item(_PSI, _B_MAG)
-        y = math.remainder(psi_m - magnetometer_model(x).h, 2.0 * math.pi)
         # the readings' consistency, each one's error counted once: a heading error that lasts (a hard iron not
         # removed, turning with the heading) shows in the window where each reading alone passes the gate
-        self.nis.add(y * y / (prior + cfg.sigma_mag ** 2 / h2 + dpsi_dtilt ** 2 * tilt_var))
-        if cfg.mag_gate > 0.0 and y * y > cfg.mag_gate ** 2 * (prior + r):
+        self.nis.add(nis)
+        if what == 1.0:
             return None                                 # a disturbance whose norm is near unity: not the heading
         if cfg.mag_nis_limit > 0.0:
             # found inconsistent, the magnetometer is used again only once the window is half the limit
@@ -96,3 +90,25 @@ class MagnetometerHeading:
             if self.off:
                 return None
         return HeadingMeasurement(psi_m, r)
+
+    def _reading(self, mag: tuple, phi: float, x, P, age: int) -> tuple:
+        """What a new reading ``age`` samples after the last gives: 0 nothing (its field's norm is off, or there is
+        no horizontal field), 1 its NIS only (the innovation gate rejects it), 2 a heading; the heading [rad], its
+        variance [rad2] and its NIS for the consistency window (the compiled version: ``sideslip_fusion_heading``)."""
+        cfg = self.config
+        if not abs(math.sqrt(mag[0] ** 2 + mag[1] ** 2 + mag[2] ** 2) - 1.0) <= cfg.mag_norm_gate:
+            return 0.0, 0.0, 0.0, 0.0                   # disturbed (or not a number)
+        # the body's tilt: the roll model's roll on the road plus the road's bank (the state's gravity term)
+        bank = math.asin(max(-0.5, min(float(x[_G_Y]) / GRAVITY, 0.5)))
+        psi_m, dpsi_dtilt, h2 = tilt_compensated_heading(mag, phi + bank, cfg.mag_declination)
+        if h2 < 1e-4:                                   # no horizontal field to point with
+            return 0.0, 0.0, 0.0, 0.0
+        # the tilt's error: the roll model's, the bank estimate's (its state's std) and the rest (pitch)
+        tilt_var = (cfg.mag_tilt_std + cfg.mag_roll_error * abs(phi)) ** 2 + P.item(_G_Y, _G_Y) / GRAVITY ** 2
+        # it lasts (a roll model wrong in a turn, a bank): its share counts once per correlation time
+        r = cfg.sigma_mag ** 2 / h2 + dpsi_dtilt ** 2 * tilt_var * max(cfg.mag_tilt_correlation_time
+                                                                        / (age * self.ts), 1.0)
+        prior = P.item(_PSI, _PSI) + P.item(_B_MAG, _B_MAG) + 2.0 * P.item(_PSI, _B_MAG)
+        y = math.remainder(psi_m - magnetometer_model(x).h, 2.0 * math.pi)
+        nis = y * y / (prior + cfg.sigma_mag ** 2 / h2 + dpsi_dtilt ** 2 * tilt_var)
+        return 1.0 if cfg.mag_gate > 0.0 and y * y > cfg.mag_gate ** 2 * (prior + r) else 2.0, psi_m, r, nis

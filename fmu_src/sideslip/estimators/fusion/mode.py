@@ -32,7 +32,6 @@ import math
 
 import numpy as np
 
-from ...plant import kernel
 from ..kalman import DelayedMeasurements, InnovationMonitor, KalmanFilter
 from .friction_test import friction_test
 from .models import (AxlePseudo, Geometry, SampleInputs, ScalarMeasurement, axle_pseudo, kinematic_step,
@@ -89,42 +88,46 @@ class FusionModel:
         ``(state, low, high)`` of the bounded states.
     robust : bool
         The EKF's robustness (correlation, covariance matching, Huber) on the tire pseudo-measurements.
+    compiled : sideslip.plant.kernel.FusionKernel, optional
+        The compiled kinematic step, wheel-speed and tire measurements (the same doubles); None: the Python models.
     """
 
     __slots__ = ("config", "ts", "geometry", "front_undriven", "q", "p_cap", "bounds", "robust", "correlation",
-                 "ln_mu_floor", "_ln_mu0", "_inv_mu_std", "_inv_c_std", "_compiled_axles")
+                 "ln_mu_floor", "_ln_mu0", "_inv_mu_std", "_inv_c_std", "_compiled_kinematic", "_compiled_wheel",
+                 "_compiled_axles")
 
     def __init__(self, config, geometry: Geometry, front_undriven: bool, q: np.ndarray, p_cap: np.ndarray,
-                 bounds: tuple, robust: bool):
+                 bounds: tuple, robust: bool, compiled=None):
         cfg = config
         self.config, self.ts, self.geometry, self.front_undriven = cfg, cfg.Ts, geometry, front_undriven
         self.q, self.p_cap, self.bounds, self.robust = q, p_cap, bounds, robust
         self.correlation = max(cfg.slip_correlation_time / cfg.Ts, 1.0) if robust else 1.0
         self.ln_mu_floor = math.log(cfg.mu_min)        # the road carries what the car is measured to do (the inputs')
         self._ln_mu0, self._inv_mu_std, self._inv_c_std = math.log(cfg.mu0), 1.0 / cfg.mu_std0, 1.0 / cfg.stiffness_std0
-        # the tire pseudo-measurements compiled where they run (the same doubles as axle_pseudo)
-        self._compiled_axles = (kernel.FusionKernel(geometry, len(q)).axles if cfg.compiled and kernel.available()
-                                else None)
+        # bound methods, not the kernel: an FMU state takes them from its template (a kernel's buffers are not data)
+        self._compiled_kinematic, self._compiled_wheel, self._compiled_axles = (
+            (None, None, None) if compiled is None else (compiled.kinematic, compiled.wheel, compiled.axles))
 
     def axles(self, x: np.ndarray, inp: SampleInputs) -> tuple:
         """:func:`~sideslip.estimators.fusion.models.axle_pseudo` of the state ``x``, compiled where it runs (its
         rows are then valid until the next call)."""
         if self._compiled_axles is None:
             return axle_pseudo(x, inp, self.geometry, self.config.utilisation_max)
-        h_f, a_f, u_f, s_f, g_f, h_r, a_r, u_r, s_r, g_r, front, rear = self._compiled_axles(
-            x, inp, self.config.utilisation_max)
+        h_f, a_f, u_f, s_f, g_f, h_r, a_r, u_r, s_r, g_r, front, rear = self._compiled_axles(x, inp)
         return AxlePseudo(h_f, front, a_f, u_f, s_f, g_f), AxlePseudo(h_r, rear, a_r, u_r, s_r, g_r)
 
     def advance(self, mode: Mode, inp: SampleInputs, vx_ref: float) -> float:
         """Time update and the wheel-speed and tire updates of one filter for one sample; returns the log-likelihood
         of the tire pseudo-measurements."""
         kf = mode.kf
-        xp, F = kinematic_step(kf.x, inp.ax, inp.ay, inp.r_m, self.ts)
+        xp, F = (kinematic_step(kf.x, inp.ax, inp.ay, inp.r_m, self.ts) if self._compiled_kinematic is None
+                 else self._compiled_kinematic(kf.x, inp.ax, inp.ay, inp.r_m))
         # a parameter whose variance has reached its prior's gets no more process noise (nothing shows it)
         q = self.q * (kf.P.ravel()[::len(kf.x) + 1] < self.p_cap)      # (the diagonal's view)
         q[_VY] += mode.q_vy
         kf.predict(xp, F, q)
-        self._huber_update(kf, wheel_measurement(kf.x, inp, self.front_undriven))
+        self._huber_update(kf, wheel_measurement(kf.x, inp, self.front_undriven) if self._compiled_wheel is None
+                           else self._compiled_wheel(kf.x, inp.delta, inp.v_wheel, inp.ax))
         loglik = self._tire_updates(mode, inp, vx_ref) if vx_ref > self.config.v_min else 0.0
         self.bound(kf)
         return loglik
