@@ -41,6 +41,13 @@ __all__ = ["SensorConfig", "SensorSuite", "SO", "parse_windows"]
 
 SO = IntEnum("SO", {name.upper(): i for i, name in enumerate(SENSOR_OUTPUTS)})
 SO.__doc__ = "Positions of the sensor outputs (names of :data:`sideslip.signals.SENSOR_OUTPUTS`, upper case)."
+# plain-int copies (indexing a list with an IntEnum member costs several times more; the step writes some every 1 ms)
+(_AX_M, _AY_M, _YAW_RATE_M, _ROLL_RATE_M, _DELTA_M, _DELTA_FAULT_ACTIVE, _OMEGA_FL_M, _OMEGA_FR_M, _OMEGA_RL_M,
+ _OMEGA_RR_M, _GPS_VE, _GPS_VN, _GPS_SPEED, _GPS_COURSE, _GPS_FRESH, _GPS_VALID, _MAG_X, _MAG_Y, _MAG_Z,
+ _MAG_DISTURBANCE_ACTIVE) = (int(SO[name]) for name in (
+    "AX_M", "AY_M", "YAW_RATE_M", "ROLL_RATE_M", "DELTA_M", "DELTA_FAULT_ACTIVE", "OMEGA_FL_M", "OMEGA_FR_M",
+    "OMEGA_RL_M", "OMEGA_RR_M", "GPS_VE", "GPS_VN", "GPS_SPEED", "GPS_COURSE", "GPS_FRESH", "GPS_VALID", "MAG_X",
+    "MAG_Y", "MAG_Z", "MAG_DISTURBANCE_ACTIVE"))
 
 _NOISE_BLOCK = 4096
 _EPS_SAMPLE = 1e-6   # tolerance of the sample-time test, in samples
@@ -255,27 +262,27 @@ class SensorSuite(Model):
         due = t >= self._next_due
         if due and self._imu.due(t):
             n_ax, n_ay, n_r, n_p = self._draws(4)
-            out[SO.AX_M] = ax + cfg.ax_bias + cfg.ax_sigma * n_ax
-            out[SO.AY_M] = ay + cfg.ay_bias + cfg.ay_sigma * n_ay
+            out[_AX_M] = ax + cfg.ax_bias + cfg.ax_sigma * n_ax
+            out[_AY_M] = ay + cfg.ay_bias + cfg.ay_sigma * n_ay
             if cfg.yaw_rate_bias_drift > 0.0:      # random walk: variance drift^2 per 100 s
                 self.yaw_rate_bias += cfg.yaw_rate_bias_drift * math.sqrt(0.01 / cfg.imu_rate) * \
                     float(self._walk_rng.standard_normal())
-            out[SO.YAW_RATE_M] = yaw_rate + self.yaw_rate_bias + cfg.yaw_rate_sigma * n_r
-            out[SO.ROLL_RATE_M] = roll_rate + cfg.roll_rate_bias + cfg.roll_rate_sigma * n_p
+            out[_YAW_RATE_M] = yaw_rate + self.yaw_rate_bias + cfg.yaw_rate_sigma * n_r
+            out[_ROLL_RATE_M] = roll_rate + cfg.roll_rate_bias + cfg.roll_rate_sigma * n_p
         if due and self._steer.due(t):
             fault = t >= cfg.steer_fault_time and cfg.steer_fault != "none"
             if not (fault and cfg.steer_fault == "stuck"):
-                out[SO.DELTA_M] = delta_f + cfg.steer_bias + cfg.steer_sigma * g() + (
+                out[_DELTA_M] = delta_f + cfg.steer_bias + cfg.steer_sigma * g() + (
                     cfg.steer_fault_offset if fault else 0.0)
-            out[SO.DELTA_FAULT_ACTIVE] = 1.0 if fault else 0.0    # describes the held sample
+            out[_DELTA_FAULT_ACTIVE] = 1.0 if fault else 0.0    # describes the held sample
         if due and self._wheel.due(t):
             k, sig = 1.0 + cfg.wheel_radius_error, cfg.wheel_sigma
             n_fl, n_fr, n_rl, n_rr = self._draws(4)
-            out[SO.OMEGA_FL_M] = omega_fl * k + sig * n_fl
-            out[SO.OMEGA_FR_M] = omega_fr * k + sig * n_fr
-            out[SO.OMEGA_RL_M] = omega_rl * k + sig * n_rl
-            out[SO.OMEGA_RR_M] = omega_rr * k + sig * n_rr
-        out[SO.GPS_FRESH] = 0.0
+            out[_OMEGA_FL_M] = omega_fl * k + sig * n_fl
+            out[_OMEGA_FR_M] = omega_fr * k + sig * n_fr
+            out[_OMEGA_RL_M] = omega_rl * k + sig * n_rl
+            out[_OMEGA_RR_M] = omega_rr * k + sig * n_rr
+        out[_GPS_FRESH] = 0.0
         outage = bool(self._outages) and self._in_outage(t)
         if due and self._gps.due(t):
             truth = self._delayed_velocity(t - cfg.gps_delay)
@@ -285,12 +292,12 @@ class SensorSuite(Model):
                 ve = truth[0] + cfg.gps_vel_sigma * n_e
                 vn = truth[1] + cfg.gps_vel_sigma * n_n
             if truth is not None and not outage:
-                out[SO.GPS_VE], out[SO.GPS_VN] = ve, vn
-                out[SO.GPS_SPEED] = math.hypot(ve, vn)
-                out[SO.GPS_COURSE] = math.atan2(vn, ve)
-                out[SO.GPS_FRESH] = 1.0
+                out[_GPS_VE], out[_GPS_VN] = ve, vn
+                out[_GPS_SPEED] = math.hypot(ve, vn)
+                out[_GPS_COURSE] = math.atan2(vn, ve)
+                out[_GPS_FRESH] = 1.0
                 self._gps_seen = True
-        out[SO.GPS_VALID] = 1.0 if (self._gps_seen and not outage) else 0.0
+        out[_GPS_VALID] = 1.0 if (self._gps_seen and not outage) else 0.0
         if due and self._mag.due(t):
             episode = self._episode_at(t)
             fx, fy, fz = self._field
@@ -302,10 +309,10 @@ class SensorSuite(Model):
                 mx, my, mz = mx + dx, my + dy, mz + dz
             sig = cfg.mag_sigma
             n_x, n_y, n_z = self._draws(3)
-            out[SO.MAG_X] = mx + sig * n_x
-            out[SO.MAG_Y] = my + sig * n_y
-            out[SO.MAG_Z] = mz + sig * n_z
-            out[SO.MAG_DISTURBANCE_ACTIVE] = 1.0 if episode is not None else 0.0  # describes the held sample
+            out[_MAG_X] = mx + sig * n_x
+            out[_MAG_Y] = my + sig * n_y
+            out[_MAG_Z] = mz + sig * n_z
+            out[_MAG_DISTURBANCE_ACTIVE] = 1.0 if episode is not None else 0.0  # describes the held sample
         if due:
             self._next_due = min(sampler.not_before() for sampler in self._samplers)
 
