@@ -9,6 +9,7 @@ setup(ext_modules=[Extension(
                                      "fmu_src/sideslip/plant/native/driver_kernel.c",
                                      "fmu_src/sideslip/control/native/lqr_kernel.c",
                                      "fmu_src/sideslip/estimators/fusion/native/fusion_kernel.c"],
+    depends=["fmu_src/sideslip/plant/native/python_math.h"],
     define_macros=[("SIDESLIP_PYTHON_EXTENSION", "1")],
     # the same doubles as the Python reference: no fused multiply-adds, no fast-math
     extra_compile_args=["-O2", "-ffp-contract=off", "-fno-fast-math"], optional=True)])

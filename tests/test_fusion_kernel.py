@@ -21,6 +21,7 @@ from sideslip import geomagnetic
 from sideslip.constants import GRAVITY
 from sideslip.estimators import ESTIMATORS
 from sideslip.estimators.fusion import Fs, Geometry, SampleInputs, axle_pseudo, kinematic_step, wheel_measurement
+from sideslip.estimators.fusion.inputs import InputConditioner
 from sideslip.estimators.fusion.magnetometer import MagnetometerHeading
 from sideslip.geomagnetic import earth_field
 from sideslip.params import build
@@ -175,11 +176,13 @@ def test_the_fusion_fmu_runs_compiled_and_gives_the_reference(fmu_dir):
     _assert_same(compiled, reference)
 
 
-def _kernel(geometry=GEOMETRY, front_undriven=1.0, n=len(Fs), ts=0.01, u_max=0.95):
+def _kernel(geometry=GEOMETRY, front_undriven=1.0, n=len(Fs), ts=0.01, u_max=0.95, conditioner=None):
     cfg = FUSION.config_class()
+    if conditioner is None:
+        conditioner = InputConditioner(_fusion(get_scenario("park2018_case2"), 1).vehicle, ts, 5.0, True, 0.1, 1.3)
     return kernel.FusionKernel((*geometry, GRAVITY, ts, u_max, front_undriven, cfg.mag_norm_gate,
                                 cfg.mag_declination, cfg.mag_tilt_std, cfg.mag_roll_error, cfg.sigma_mag,
-                                cfg.mag_tilt_correlation_time, cfg.mag_gate), n)
+                                cfg.mag_tilt_correlation_time, cfg.mag_gate, *conditioner.kernel_constants()), n)
 
 
 def test_the_compiled_kinematic_step_and_wheel_speeds_give_the_reference_doubles():
@@ -244,3 +247,27 @@ def test_the_compiled_magnetometer_heading_gives_the_reference_doubles():
     assert seen == {0.0, 1.0, 2.0}
     assert _outcome(lambda: kern.heading((1e200, 0.0, 0.0), 0.0, x, P, 1)) is OverflowError
     assert _outcome(lambda: MagnetometerHeading(cfg, 0.01)._reading((1e200, 0.0, 0.0), 0.0, x, P, 1)) is OverflowError
+
+
+@pytest.mark.parametrize("combined", [True, False])
+def test_the_compiled_input_conditioner_gives_the_reference_doubles(combined):
+    """Samples in sequence (the roll model, the yaw acceleration's and the horizontal acceleration's low-passes carry
+    state): accelerations to beyond the friction, both signs of the longitudinal force, offsets and roll gains."""
+    vehicle = _fusion(get_scenario("park2018_case2"), 1).vehicle
+    ref, cond = (InputConditioner(vehicle, 0.01, 5.0, combined, 0.1, 1.3) for _ in range(2))
+    cond.compiled = _kernel(conditioner=cond).inputs
+    rng = np.random.default_rng(4)
+    rows = []
+    for k in range(2000):
+        u = [float(v) for v in (rng.normal(0.0, 4.0), 9.0 * math.sin(k / 40.0) + rng.normal(0.0, 1.0),
+                                0.6 * math.sin(k / 25.0), rng.normal(0.0, 0.05), 20.0, rng.normal(0.0, 0.2),
+                                rng.normal(0.0, 0.2), rng.normal(0.0, 0.05))]
+        a, b = ref(*u), cond(*u)
+        rows.append((np.r_[a, ref.roll.phi, ref.roll.phi_rate, ref.ln_mu_floor],
+                     np.r_[b, cond.roll.phi, cond.roll.phi_rate, cond.ln_mu_floor]))
+    refs, gots = (np.array(r) for r in zip(*rows))
+    assert np.ptp(refs[:, -1]) > 0.5 and (refs[:, 9] != 0.0).any() == combined
+    _assert_same(gots, refs)
+    for c in (ref, cond):                  # a roll model that diverged: math.sin of an infinity raises
+        c.roll.phi = math.inf
+    assert _outcome(lambda: ref(*u)) is ValueError and _outcome(lambda: cond(*u)) is ValueError

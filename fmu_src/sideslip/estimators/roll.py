@@ -41,6 +41,11 @@ class RollCompensator:
         self.ts = ts
         self.phi = self.phi_rate = 0.0
 
+    def coefficients(self) -> tuple[float, float, float, float]:
+        """The roll model's ``I_roll`` [kg m2], ``C_phi`` [N m s/rad], ``K_phi - m_s g h_s`` [N m/rad] and ``m_s h_s``
+        [kg m] (for a compiled step)."""
+        return self._i, self._c, self._k, self._mh
+
     def __call__(self, ay_meas: float) -> float:
         """CG lateral acceleration [m/s2] from the body-fixed reading; advances the roll model one sample."""
         phi = self.phi

@@ -15,8 +15,9 @@ mingw-w64 cross compiler (``x86_64-w64-mingw32-gcc``, or ``$SIDESLIP_MINGW_CC``)
 itself, see the shim's comment) with pythonfmu's DLL beside it as ``pythonfmu_export.dll``;
 without it pythonfmu's stock win64 binary is kept.
 
-Every FMU carries the plant's and the driver's compiled steps (:mod:`sideslip.plant.kernel`) for the platforms
-whose compiler is there, in its package's ``plant/native/<platform>/``.
+Every FMU whose models have compiled parts (the plant's, the driver's and the LQR's steps, SideslipFusion's scalar
+models: :mod:`sideslip.plant.kernel`) carries them for the platforms whose compiler is there, in its package's
+``plant/native/<platform>/``.
 
 Builds are cached: an FMU is rebuilt when the hash of the files it carries changes.
 
@@ -55,8 +56,10 @@ SHIM_SOURCE = PACKAGE_DIR / "fmi" / "native" / "fmi2_status_shim.c"
 KERNEL_SOURCES = (*(PACKAGE_DIR / "plant" / "native" / f"{model}_kernel.c" for model in ("plant", "driver")),
                   PACKAGE_DIR / "control" / "native" / "lqr_kernel.c",
                   PACKAGE_DIR / "estimators" / "fusion" / "native" / "fusion_kernel.c")
-"""The plant's, the driver's and the LQR's compiled steps and SideslipFusion's tire pseudo-measurements
+"""The plant's, the driver's and the LQR's compiled steps and SideslipFusion's scalar models
 (:mod:`sideslip.plant.kernel`, one binary), built for each platform into the FMUs."""
+KERNEL_HEADERS = (PACKAGE_DIR / "plant" / "native" / "python_math.h",)
+"""What the kernel's C files include (Python's float semantics)."""
 KERNEL_MODULE = PACKAGE_DIR / "plant" / "kernel.py"
 FP_FLAGS = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
 """The kernel computes the same doubles as its Python reference: IEEE arithmetic, no fused multiply-adds."""
@@ -155,8 +158,9 @@ def compile_shim(work: Path, guid: str = "", platform: str = "linux64") -> tuple
 
 
 def compile_kernel(work: Path, platform: str = "linux64") -> Path | None:
-    """Compile the plant's, the driver's and the LQR's steps (:data:`KERNEL_SOURCES`, one binary) for a platform into
-    ``work``; None without its compiler (they then run their Python reference there)."""
+    """Compile the plant's, the driver's and the LQR's steps and SideslipFusion's scalar models
+    (:data:`KERNEL_SOURCES`, one binary) for a platform into ``work``; None without its compiler (they then run their
+    Python reference there)."""
     from ..plant.kernel import LIBRARY_NAME
 
     cc = _find_cc(platform)
@@ -165,7 +169,7 @@ def compile_kernel(work: Path, platform: str = "linux64") -> Path | None:
     out = work / f"{LIBRARY_NAME}{PLATFORMS[platform]}"
     flags = ["-fPIC", "-fvisibility=hidden"] if platform == "linux64" else ["-s", "-static-libgcc"]
     _compile([cc, "-shared", *FP_FLAGS, *flags, *map(str, KERNEL_SOURCES), "-o", str(out), "-lm"],
-             f"the plant, driver and LQR kernel ({platform})")
+             f"the plant, driver, LQR and fusion kernel ({platform})")
     return out
 
 
@@ -181,7 +185,8 @@ def _source_hash(name: str, shims: tuple[str, ...]) -> str:
     spec = fmu_spec(name)
     h = hashlib.sha256()
     bundled = bundled_files(spec)
-    files = [wrapper_script(spec), SHIM_SOURCE, *bundled, *(KERNEL_SOURCES if KERNEL_MODULE in bundled else ())]
+    files = [wrapper_script(spec), SHIM_SOURCE, *bundled,
+             *((*KERNEL_SOURCES, *KERNEL_HEADERS) if KERNEL_MODULE in bundled else ())]
     for p in files:
         h.update(str(p.relative_to(PACKAGE_DIR.parent) if p.is_relative_to(PACKAGE_DIR.parent) else p.name)
                  .encode())

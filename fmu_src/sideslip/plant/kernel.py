@@ -28,8 +28,8 @@ import struct
 import sys
 from pathlib import Path
 
-__all__ = ["CompiledStep", "PlantKernel", "DriverKernel", "LqrKernel", "FusionKernel", "available", "UNAVAILABLE", "LIBRARY_NAME", "PLATFORM",
-           "N_STATE", "N_INPUTS", "N_OUTPUTS", "PLANT_IO"]
+__all__ = ["CompiledStep", "PlantKernel", "DriverKernel", "LqrKernel", "FusionKernel", "available", "UNAVAILABLE",
+           "LIBRARY_NAME", "PLATFORM", "N_STATE", "N_INPUTS", "N_OUTPUTS", "PLANT_IO", "FUSION_IO"]
 
 LIBRARY_NAME = "sideslip_plant_kernel"
 """File name (without extension) of the binary an FMU carries."""
@@ -73,7 +73,7 @@ def _load():
         lib.sideslip_driver_step.restype = None
         lib.sideslip_lqr_step.argtypes = None                    # (byref(law), byref(design), io)
         lib.sideslip_lqr_step.restype = None
-        for name in ("kinematic", "wheel", "axles", "heading"):    # (constants, io[, arrays, n]): codes
+        for name in ("inputs", "kinematic", "wheel", "axles", "heading"):    # (constants, io[, arrays, n]): codes
             getattr(lib, f"sideslip_fusion_{name}").argtypes = None
             getattr(lib, f"sideslip_fusion_{name}").restype = ctypes.c_int
         return lib, ""
@@ -316,9 +316,9 @@ class LqrKernel:
 
 
 
-_FUSION_FUNCTIONS = ("kinematic", "wheel", "axles", "heading")
+_FUSION_FUNCTIONS = ("inputs", "kinematic", "wheel", "axles", "heading")
 """The compiled functions of SideslipFusion (fusion_kernel.c), in the order ``sideslip_fusion_io_size`` numbers them."""
-FUSION_IO = {"kinematic": (16, 3), "wheel": (6, 2), "axles": (21, 10), "heading": (12, 4)}
+FUSION_IO = {"inputs": (12, 12), "kinematic": (16, 3), "wheel": (6, 2), "axles": (21, 10), "heading": (12, 4)}
 """Values in and out of each compiled SideslipFusion function (fusion_kernel.c ``*_SIZE``)."""
 _FUSION_IN = {name: struct.Struct(f"={n_in}d") for name, (n_in, _) in FUSION_IO.items()}
 _FUSION_OUT = {name: struct.Struct(f"={n_out}d") for name, (_, n_out) in FUSION_IO.items()}
@@ -343,9 +343,10 @@ class FusionKernel:
     constants : sequence of float
         The C ``Constants`` struct's values (fusion_kernel.c): the vehicle file's axles
         (:class:`sideslip.estimators.fusion.models.Geometry`), the gravity, the sample period, the utilisation limit,
-        1.0 where the undriven wheels are the front ones, and the magnetometer's ``mag_norm_gate``,
+        1.0 where the undriven wheels are the front ones, the magnetometer's ``mag_norm_gate``,
         ``mag_declination``, ``mag_tilt_std``, ``mag_roll_error``, ``sigma_mag``, ``mag_tilt_correlation_time``,
-        ``mag_gate``.
+        ``mag_gate``, and the input conditioner's
+        (:meth:`sideslip.estimators.fusion.inputs.InputConditioner.kernel_constants`).
     n : int
         The filter's state size.
 
@@ -377,11 +378,24 @@ class FusionKernel:
         """The kinematic model's Jacobian of the last :meth:`kinematic`."""
         self._rows_p = tuple(ctypes.c_void_p(row.ctypes.data) for row in rows)
         self._F_p = ctypes.c_void_p(self.F.ctypes.data)
-        self._kinematic, self._wheel, self._axles, self._heading = (
+        self._inputs, self._kinematic, self._wheel, self._axles, self._heading = (
             getattr(_LIB, f"sideslip_fusion_{name}") for name in _FUSION_FUNCTIONS)
 
     def __reduce__(self):                     # a copy has buffers (and their pointers) of its own
         return FusionKernel, self._args
+
+    def inputs(self, ax: float, ay_m: float, r_m: float, b_ax: float, b_ay: float, k_ay: float, phi: float,
+               phi_rate: float, r_prev, r_dot: float, accel: float) -> tuple:
+        """A sample's roll-compensated ``a_y``, the axles' ``fy_f, fy_r, fz_f, fz_r, fx_f, fx_r``, then the roll model's
+        new ``phi`` and ``phi_rate``, the yaw acceleration, the horizontal acceleration and the log friction floor
+        (:class:`sideslip.estimators.fusion.inputs.InputConditioner`; ``r_prev`` None before the first sample)."""
+        io = self._io
+        _FUSION_IN["inputs"].pack_into(io, 0, ax, ay_m, r_m, b_ax, b_ay, k_ay, phi, phi_rate,
+                                       *((0.0, 0.0) if r_prev is None else (r_prev, 1.0)), r_dot, accel)
+        code = self._inputs(self._k, io)
+        if code:
+            _raise(code)
+        return _FUSION_OUT["inputs"].unpack_from(io, 8 * 12)
 
     def kinematic(self, x, ax: float, ay: float, r_m: float) -> tuple:
         """The predicted state and the Jacobian (:attr:`F`) of

@@ -70,8 +70,10 @@ class SideslipFusion(Estimator):
         compiled = (kernel.FusionKernel((*self._geometry, GRAVITY, ts, cfg.utilisation_max,
                                          float(v.drive_split_front <= 0.0), cfg.mag_norm_gate, cfg.mag_declination,
                                          cfg.mag_tilt_std, cfg.mag_roll_error, cfg.sigma_mag,
-                                         cfg.mag_tilt_correlation_time, cfg.mag_gate), len(x0))
+                                         cfg.mag_tilt_correlation_time, cfg.mag_gate,
+                                         *self._conditioner.kernel_constants()), len(x0))
                     if cfg.compiled and kernel.available() else None)
+        self._conditioner.compiled = None if compiled is None else compiled.inputs
         self._model = FusionModel(cfg, self._geometry, v.drive_split_front <= 0.0, q, p_cap, bounds,
                                   robust=cfg.formulation == EKF, compiled=compiled)
         # the samples a delayed fix needs: the filters' own (extrapolation) or the inputs and snapshots (re-run)

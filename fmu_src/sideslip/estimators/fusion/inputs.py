@@ -39,8 +39,8 @@ class InputConditioner:
         Bounds of the friction floor.
     """
 
-    __slots__ = ("vehicle", "ts", "roll", "ln_mu_floor", "_cutoff", "_combined", "_mu_min", "_mu_max", "_fz_static",
-                 "_r_prev", "_r_dot", "_accel")
+    __slots__ = ("vehicle", "ts", "roll", "ln_mu_floor", "compiled", "_cutoff", "_combined", "_mu_min", "_mu_max",
+                 "_fz_static", "_r_prev", "_r_dot", "_accel")
 
     def __init__(self, vehicle: VehicleParams, ts: float, yaw_acc_cutoff: float, combined_slip: bool, mu_min: float,
                  mu_max: float):
@@ -52,12 +52,27 @@ class InputConditioner:
         self._r_prev = None
         self._r_dot = self._accel = 0.0
         self.ln_mu_floor = math.log(mu_min)
+        self.compiled = None
+        """The compiled step (:meth:`sideslip.plant.kernel.FusionKernel.inputs`, the same doubles), or None."""
+
+    def kernel_constants(self) -> tuple:
+        """The conditioner's constants of the compiled step (fusion_kernel.c ``Constants``, from ``roll_i`` on)."""
+        v = self.vehicle
+        return (*self.roll.coefficients(), self._cutoff, self._mu_min, self._mu_max, v.m, v.I_zz, v.l_f, v.l_r,
+                v.h_cg, float(v.l), *self._fz_static, float(self._combined), v.drive_split_front, v.brake_split_front)
 
     def __call__(self, ax: float, ay_m: float, r_m: float, delta: float, v_wheel: float, b_ax, b_ay,
                  k_ay: float = 0.0) -> SampleInputs:
         """The inputs of a sample with the measured accelerations [m/s2], yaw rate [rad/s], road-wheel angle [rad] and
         undriven-wheel speed [m/s], and the filter's accelerometer offsets ``b_ax``, ``b_ay`` [m/s2] and roll gain
         ``k_ay``."""
+        if self.compiled is not None:
+            roll = self.roll
+            ay, fyf, fyr, fzf, fzr, fxf, fxr, roll.phi, roll.phi_rate, self._r_dot, self._accel, self.ln_mu_floor = \
+                self.compiled(ax, ay_m, r_m, b_ax, b_ay, k_ay, roll.phi, roll.phi_rate, self._r_prev, self._r_dot,
+                              self._accel)
+            self._r_prev = r_m
+            return SampleInputs(ax, ay, r_m, delta, v_wheel, fyf, fyr, fzf, fzr, fxf, fxr)
         v, ts = self.vehicle, self.ts
         ay = self.roll(ay_m)
         b_ay = b_ay + k_ay * ay                     # what is not the tires' force: the offset and the roll's gravity

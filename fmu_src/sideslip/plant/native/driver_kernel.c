@@ -2,13 +2,15 @@
  * The maneuver driver's step in C: the path follower and the speed controller of the pure-Python reference
  * (sideslip/plant/driver.py Driver.step and _pure_pursuit, sideslip/plant/paths.py Path.project and
  * Path.point_at), operation for operation, so that both give the same doubles (no contraction into fused
- * multiply-adds, the same libm, Python's own hypot).  The maneuver's schedules (target speed, open-loop
+ * multiply-adds, the same libm, Python's own hypot: python_math.h).  The maneuver's schedules (target speed, open-loop
  * handwheel) are Python functions of time and stay there: the caller passes their values of the step.
  *
  * Compiled into the same binary as plant_kernel.c and loaded with ctypes (sideslip/plant/kernel.py).
  */
 #include <float.h>
 #include <math.h>
+
+#include "python_math.h"
 
 #if defined(_WIN32)
 #define KERNEL_API __declspec(dllexport)
@@ -80,68 +82,6 @@ static int project(const DriverPlan *p, double px, double py, int hint, double *
     return i;
 }
 
-/* Python's math.hypot of two coordinates (CPython's vector_norm, not libm's hypot, which differs in the last bit
- * now and then): scaled by a power of two, squared and summed as double-length numbers, a square root and one
- * differential correction.  The exact product uses Dekker's split, so that no fused multiply-add is needed. */
-typedef struct { double hi, lo; } Double2;
-
-static Double2 sum_ordered(double a, double b)     /* |a| >= |b|: a + b exactly as hi + lo */
-{
-    Double2 r;
-    r.hi = a + b;
-    r.lo = b - (r.hi - a);
-    return r;
-}
-
-static Double2 product(double x, double y)         /* x y exactly as hi + lo (Dekker) */
-{
-    double tx = x * 134217729.0, ty = y * 134217729.0;  /* 2^27 + 1 */
-    double xh = tx - (tx - x), xl = x - xh, yh = ty - (ty - y), yl = y - yh;
-    double p = xh * yh, q = xh * yl + xl * yh;
-    Double2 r;
-    r.hi = p + q;
-    r.lo = p - r.hi + q + xl * yl;
-    return r;
-}
-
-static double python_hypot(double a, double b)
-{
-    double v[2], largest, scale, csum = 1.0, frac1 = 0.0, frac2 = 0.0, h, x;
-    Double2 pr, sm;
-    int i, e;
-
-    v[0] = fabs(a);
-    v[1] = fabs(b);
-    largest = v[0] > v[1] ? v[0] : v[1];
-    if (isinf(v[0]) || isinf(v[1]))
-        return INFINITY;
-    if (isnan(a) || isnan(b))
-        return NAN;
-    if (largest == 0.0)
-        return 0.0;
-    frexp(largest, &e);
-    if (e < -1023)                    /* subnormal: normalised first, as CPython does */
-        return DBL_MIN * python_hypot(v[0] / DBL_MIN, v[1] / DBL_MIN);
-    scale = ldexp(1.0, -e);
-    for (i = 0; i < 2; i++) {
-        x = v[i] * scale;
-        pr = product(x, x);
-        sm = sum_ordered(csum, pr.hi);
-        csum = sm.hi;
-        frac1 += pr.lo;
-        frac2 += sm.lo;
-    }
-    h = sqrt(csum - 1.0 + (frac1 + frac2));
-    pr = product(-h, h);
-    sm = sum_ordered(csum, pr.hi);
-    csum = sm.hi;
-    frac1 += pr.lo;
-    frac2 += sm.lo;
-    x = csum - 1.0 + (frac1 + frac2);
-    h += x / (2.0 * h);
-    return h / scale;
-}
-
 /* Python's float modulo (the result has the divisor's sign). */
 static double py_mod(double v, double w)
 {
@@ -205,7 +145,7 @@ static double pure_pursuit(const DriverPlan *p, double vx, double px, double py,
     s = sin(yaw);
     lx = c * dx + s * dy;
     ly = -s * dx + c * dy;
-    return atan(p->two_l * sin(atan2(ly, lx)) / python_hypot(lx, ly));
+    return atan(p->two_l * sin(atan2(ly, lx)) / py_hypot(lx, ly));
 }
 
 /* Driver.step after its clock and the maneuver's schedules: steering (path or open-loop target, rate limit,

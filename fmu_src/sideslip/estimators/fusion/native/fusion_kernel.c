@@ -1,9 +1,11 @@
 /*
  * SideslipFusion's scalar models in C: the same arithmetic as the pure-Python reference, operation for operation,
  * so that both give the same doubles (IEEE 754 binary64, no contraction into fused multiply-adds, the same libm;
- * Python's x ** y is the C library's pow, its math.remainder CPython's own, written out below).  The functions and
- * the reference each repeats (the equations and their sources are documented there):
+ * Python's x ** y is the C library's pow, its math.hypot and math.remainder CPython's own: python_math.h).  The
+ * functions and the reference each repeats (the equations and their sources are documented there):
  *
+ *   sideslip_fusion_inputs     sideslip/estimators/fusion/inputs.py InputConditioner.__call__ (with
+ *                              sideslip/estimators/roll.py RollCompensator, discrete.lowpass, bicycle.axle_forces)
  *   sideslip_fusion_kinematic  sideslip/estimators/fusion/models.py kinematic_step
  *   sideslip_fusion_wheel      models.wheel_measurement (with wheel_model)
  *   sideslip_fusion_axles      models.axle_pseudo (with tire_model.axle_slip_values, axle_stiffness,
@@ -21,6 +23,8 @@
  */
 #include <math.h>
 
+#include "../../../plant/native/python_math.h"
+
 #if defined(_WIN32)
 #define KERNEL_API __declspec(dllexport)
 #else
@@ -30,8 +34,6 @@
 #define CAPACITY_MIN 0.3    /* tire_model.CAPACITY_MIN */
 #define PI 3.141592653589793  /* math.pi */
 
-/* Return codes: what the Python reference raises. */
-enum { FUSION_OK = 0, FUSION_ZERO_DIVISION = 1, FUSION_OVERFLOW = 2, FUSION_DOMAIN = 3 };
 
 /* State indices (sideslip.estimators.fusion.state.Fs). */
 enum { VX, VY, PSI, B_R, B_AX, B_AY, D_DELTA, LN_CF, LN_CR, LN_MU, E_W, G_Y, K_AY, D_GNSS, B_MAG };
@@ -44,59 +46,81 @@ typedef struct {
     double gravity, ts, u_max, front_undriven;
     double mag_norm_gate, mag_declination, mag_tilt_std, mag_roll_error, sigma_mag, mag_tilt_correlation_time,
         mag_gate;
+    /* the input conditioner's (inputs.InputConditioner): the roll model's I, C, K, m_s h_s (roll.RollCompensator),
+     * the yaw acceleration's cut-off, the friction floor's bounds, the vehicle's m, I_zz, l_f, l_r, h_cg, l, the
+     * axles' static loads, 1.0 for combined slip and the drive and brake splits */
+    double roll_i, roll_c, roll_k, roll_mh, yaw_acc_cutoff, mu_min, mu_max, m, I_zz, cg_f, cg_r, h_cg, l,
+        fz_static_f, fz_static_r, combined_slip, drive_split_front, brake_split_front;
 } Constants;
 
 /* Python's float division: ZeroDivisionError for a zero divisor, whatever the dividend. */
-#define DIV(a, b, out) do { if ((b) == 0.0) return FUSION_ZERO_DIVISION; (out) = (a) / (b); } while (0)
-#define TRY(call) do { int rc_ = (call); if (rc_ != FUSION_OK) return rc_; } while (0)
+#define DIV(a, b, out) do { if ((b) == 0.0) return PY_ZERO_DIVISION; (out) = (a) / (b); } while (0)
+#define TRY(call) do { int rc_ = (call); if (rc_ != PY_OK) return rc_; } while (0)
 
-/* math.exp: OverflowError where a finite argument overflows. */
-static int py_exp(double x, double *out)
+/* ------------------------------------------------------------------------------------------------ inputs */
+
+/* discrete.lowpass: one step of a first-order low-pass filter (exact discretisation; cutoff in Hz). */
+static double lowpass(double prev, double value, double ts, double cutoff)
 {
-    *out = exp(x);
-    return isinf(*out) && isfinite(x) ? FUSION_OVERFLOW : FUSION_OK;
+    double a = exp(-2.0 * PI * cutoff * ts);
+    return a * prev + (1.0 - a) * value;
 }
 
-/* float ** float for a base >= 0 or an integral exponent (CPython's float_pow: 1 ** y and x ** 0 are 1, otherwise
- * the C library's pow; OverflowError where a finite result overflows). */
-static int py_pow(double x, double y, double *out)
-{
-    if (fabs(x) == 1.0 || y == 0.0) {
-        *out = (x < 0.0 && fmod(fabs(y), 2.0) == 1.0) ? -1.0 : 1.0;
-        return FUSION_OK;
-    }
-    *out = pow(x, y);
-    return isinf(*out) && isfinite(x) && isfinite(y) ? FUSION_OVERFLOW : FUSION_OK;
-}
+/* InputConditioner.__call__ with its RollCompensator: io in, the measured a_x, a_y, yaw rate, the filter's offsets
+ * b_ax, b_ay and roll gain k_ay, the roll model's phi and phi rate, the last yaw rate (and 1.0 if there is one),
+ * the low-passed yaw acceleration and horizontal acceleration; out, the roll-compensated a_y, the axles' lateral
+ * forces, loads and longitudinal forces (models.SampleInputs's fy_f, fy_r, fz_f, fz_r, fx_f, fx_r), the new roll
+ * model's phi and phi rate, yaw acceleration, horizontal acceleration and log friction floor. */
+enum { IN_AX = 0, IN_AY_M, IN_R_M, IN_B_AX, IN_B_AY, IN_K_AY, IN_PHI, IN_PHI_RATE, IN_R_PREV, IN_HAS_R_PREV,
+       IN_R_DOT, IN_ACCEL, IN_OUT, IN_SIZE = IN_OUT + 12 };
 
-/* math.remainder (CPython's m_remainder: x less the nearest multiple of y, ties to the even one, exactly); a
- * ValueError for an infinite x or a zero y, as math.remainder raises. */
-static int py_remainder(double x, double y, double *out)
+KERNEL_API int sideslip_fusion_inputs(const double *kp, double *io)
 {
-    double absx, absy, m, c, r;
+    const Constants *k = (const Constants *)kp;
+    double ts = k->ts, g = k->gravity, ax = io[IN_AX], r_m = io[IN_R_M], b_ax = io[IN_B_AX], phi = io[IN_PHI];
+    double phi_rate = io[IN_PHI_RATE], r_dot = io[IN_R_DOT], ay, b_ay, rate, accel, v, fx, shift, front, fyf, fyr;
+    double fzf, fzr, fxf = 0.0, fxr = 0.0, lat;
 
-    if (isnan(x) || isnan(y)) {
-        *out = isnan(x) ? x : y;
-        return FUSION_OK;
+    /* RollCompensator: a_y = (a_y,m - g sin(phi)) / cos(phi), then the roll model one sample on */
+    if (isinf(phi))
+        return PY_DOMAIN;                            /* math.sin of an infinity */
+    ay = (io[IN_AY_M] - g * sin(phi)) / cos(phi);
+    phi_rate += ts * (k->roll_mh * ay - k->roll_k * phi - k->roll_c * phi_rate) / k->roll_i;
+    phi = phi + ts * phi_rate;
+    b_ay = io[IN_B_AY] + io[IN_K_AY] * ay;       /* not the tires' force: the offset and the roll's gravity */
+    if (io[IN_HAS_R_PREV] != 0.0) {
+        DIV(r_m - io[IN_R_PREV], ts, rate);
+        r_dot = lowpass(r_dot, rate, ts, k->yaw_acc_cutoff);
     }
-    if (isinf(x) || y == 0.0)
-        return FUSION_DOMAIN;
-    if (isinf(y)) {
-        *out = x;
-        return FUSION_OK;
+    accel = lowpass(io[IN_ACCEL], py_hypot(ax - b_ax, ay - b_ay), ts, 1.0);
+    v = 0.9 * accel / g;
+    v = k->mu_max < v ? k->mu_max : v;                /* Python's min(v, mu_max) and max(mu_min, .) */
+    io[IN_OUT + 11] = log(v > k->mu_min ? v : k->mu_min);
+    /* bicycle.axle_forces(m, I_zz, l_f, l_r, a_y - b_ay, r_dot) with no yaw moment */
+    lat = ay - b_ay;
+    fyf = (k->m * k->cg_r * lat + k->I_zz * r_dot - 0.0) / (k->cg_f + k->cg_r);
+    fyr = (k->m * k->cg_f * lat - k->I_zz * r_dot + 0.0) / (k->cg_f + k->cg_r);
+    fx = k->m * (ax - b_ax);
+    shift = fx * k->h_cg / k->l;                      /* longitudinal load transfer */
+    fzf = 0.2 * k->fz_static_f > k->fz_static_f - shift ? 0.2 * k->fz_static_f : k->fz_static_f - shift;
+    fzr = 0.2 * k->fz_static_r > k->fz_static_r + shift ? 0.2 * k->fz_static_r : k->fz_static_r + shift;
+    if (k->combined_slip != 0.0) {
+        front = fx > 0.0 ? k->drive_split_front : k->brake_split_front;
+        fxf = front * fx;
+        fxr = (1.0 - front) * fx;
     }
-    absx = fabs(x);
-    absy = fabs(y);
-    m = fmod(absx, absy);
-    c = absy - m;            /* m against half of absy without computing 0.5 absy (CPython's comment) */
-    if (m < c)
-        r = m;
-    else if (m > c)
-        r = -c;
-    else                     /* halfway: the even multiple */
-        r = m - 2.0 * fmod(0.5 * (absx - m), absy);
-    *out = copysign(1.0, x) * r;
-    return FUSION_OK;
+    io[IN_OUT] = ay;
+    io[IN_OUT + 1] = fyf;
+    io[IN_OUT + 2] = fyr;
+    io[IN_OUT + 3] = fzf;
+    io[IN_OUT + 4] = fzr;
+    io[IN_OUT + 5] = fxf;
+    io[IN_OUT + 6] = fxr;
+    io[IN_OUT + 7] = phi;
+    io[IN_OUT + 8] = phi_rate;
+    io[IN_OUT + 9] = r_dot;
+    io[IN_OUT + 10] = accel;
+    return PY_OK;
 }
 
 /* ------------------------------------------------------------------------------------------------ time update */
@@ -126,7 +150,7 @@ KERNEL_API int sideslip_fusion_kinematic(const double *kp, double *io, double *F
     F[VY * n + G_Y] = -ts;
     F[VY * n + K_AY] = -ts * ay;
     F[PSI * n + B_R] = -ts;
-    return FUSION_OK;
+    return PY_OK;
 }
 
 /* ------------------------------------------------------------------------------------------------ wheel speeds */
@@ -157,7 +181,7 @@ KERNEL_API int sideslip_fusion_wheel(const double *kp, double *io, double *row, 
     sigma_w = 0.03 + 0.01 * fabs(vw) + 0.05 * fabs(ax) + 0.2 * fabs(vw) * grip * grip;
     io[WHEEL_OUT] = vw - h;
     io[WHEEL_OUT + 1] = sigma_w * sigma_w;
-    return FUSION_OK;
+    return PY_OK;
 }
 
 /* ------------------------------------------------------------------------------------------------ tire model */
@@ -212,7 +236,7 @@ static int axle_slip_values(double force, double f_z, double f_x, double c_hi, d
     s->c = c;
     s->f_max = f_max;
     s->k = k;
-    return FUSION_OK;
+    return PY_OK;
 }
 
 /* axle_pseudo: io in, the state's first ten values (VX..LN_MU) and the sample's inputs (models.SampleInputs, in its
@@ -263,7 +287,7 @@ KERNEL_API int sideslip_fusion_axles(const double *kp, double *io, double *row_f
     io[AXLE_OUT + 7] = rr.u;
     io[AXLE_OUT + 8] = slip_max;
     io[AXLE_OUT + 9] = rr.g;
-    return FUSION_OK;
+    return PY_OK;
 }
 
 /* ------------------------------------------------------------------------------------------------ magnetometer */
@@ -287,7 +311,7 @@ KERNEL_API int sideslip_fusion_heading(const double *kp, double *io)
     TRY(py_pow(my, 2.0, &p1));
     TRY(py_pow(mz, 2.0, &p2));
     if (!(fabs(sqrt(p0 + p1 + p2) - 1.0) <= k->mag_norm_gate))
-        return FUSION_OK;                         /* disturbed (or not a number) */
+        return PY_OK;                         /* disturbed (or not a number) */
     v = io[MAG_G_Y] / g;
     v = 0.5 < v ? 0.5 : v;                        /* Python's min(v, 0.5) and max(-0.5, .), NaN as they treat it */
     bank = asin(v > -0.5 ? v : -0.5);
@@ -303,7 +327,7 @@ KERNEL_API int sideslip_fusion_heading(const double *kp, double *io)
     if (h2 > 0.0)
         dpsi = mx * up / h2;
     if (h2 < 1e-4)
-        return FUSION_OK;                         /* no horizontal field to point with */
+        return PY_OK;                         /* no horizontal field to point with */
     TRY(py_pow(k->mag_tilt_std + k->mag_roll_error * fabs(phi), 2.0, &t));
     TRY(py_pow(g, 2.0, &g2));
     tilt_var = t + io[MAG_P_GG] / g2;
@@ -321,17 +345,17 @@ KERNEL_API int sideslip_fusion_heading(const double *kp, double *io)
     if (k->mag_gate > 0.0) {
         TRY(py_pow(k->mag_gate, 2.0, &gate2));
         if (y * y > gate2 * (prior + r))
-            return FUSION_OK;                     /* a disturbance whose norm is near unity: not the heading */
+            return PY_OK;                     /* a disturbance whose norm is near unity: not the heading */
     }
     io[MAG_OUT] = 2.0;
-    return FUSION_OK;
+    return PY_OK;
 }
 
 KERNEL_API int sideslip_fusion_constants_size(void) { return (int)(sizeof(Constants) / sizeof(double)); }
 
-/* The values of each function's io buffer, in the order kinematic, wheel, axles, heading. */
+/* The values of each function's io buffer, in the order inputs, kinematic, wheel, axles, heading. */
 KERNEL_API int sideslip_fusion_io_size(int which)
 {
-    static const int sizes[] = {KIN_SIZE, WHEEL_SIZE, AXLE_SIZE, MAG_SIZE};
-    return which >= 0 && which < 4 ? sizes[which] : -1;
+    static const int sizes[] = {IN_SIZE, KIN_SIZE, WHEEL_SIZE, AXLE_SIZE, MAG_SIZE};
+    return which >= 0 && which < 5 ? sizes[which] : -1;
 }
