@@ -148,7 +148,7 @@ class SideslipFusion(Estimator):
             if _potrf(P_s, lower=1, clean=0)[1] != 0:
                 return None
             y, H, R = gnss_measurement(z, x_s, P_s, noise, acc, at)
-            updates.append((y, H, R, H.dot(P_s).dot(H.T) + R))
+            updates.append((y, H, R, H.dot(P_s).dot(H.T) + R if self._imm is not None else None))  # the IMM's S
         nis_sum, logs = 0.0, []
         for m, (y, H, R, S) in zip(self._modes, updates):
             nis = m.kf.update(y, H, R) if m.delayed is None else m.delayed.update(lag, y, H, R)
