@@ -325,9 +325,6 @@ _FUSION_OUT = {name: struct.Struct(f"={n_out}d") for name, (_, n_out) in FUSION_
 _FUSION_RAISES = {1: (ZeroDivisionError, "float division by zero"), 2: (OverflowError, "math range error"),
                   3: (ValueError, "math domain error")}
 """What the Python reference raises where a C function returns these codes."""
-_VX, _PSI, _LN_MU, _E_W, _G_Y, _B_MAG = 0, 2, 9, 10, 11, 14
-"""SideslipFusion's state indices the functions read (``sideslip.estimators.fusion.state.Fs``)."""
-
 
 def _raise(code: int):
     error, message = _FUSION_RAISES[code]
@@ -407,11 +404,12 @@ class FusionKernel:
         xp[:3] = _FUSION_OUT["kinematic"].unpack_from(io, 8 * 16)
         return xp, self.F
 
-    def wheel(self, x, delta: float, v_wheel: float, ax: float) -> tuple:
+    def wheel(self, vx: float, e_w: float, ln_mu: float, delta: float, v_wheel: float, ax: float) -> tuple:
         """The innovation, the Jacobian row (:attr:`wheel_row`) and the noise variance of
-        :func:`sideslip.estimators.fusion.models.wheel_measurement`."""
+        :func:`sideslip.estimators.fusion.models.wheel_measurement` (the state's ``VX``, ``E_W``, ``LN_MU``, the
+        sample's steering, undriven wheels' speed and ``a_x``)."""
         io = self._io
-        _FUSION_IN["wheel"].pack_into(io, 0, x.item(_VX), x.item(_E_W), x.item(_LN_MU), delta, v_wheel, ax)
+        _FUSION_IN["wheel"].pack_into(io, 0, vx, e_w, ln_mu, delta, v_wheel, ax)
         code = self._wheel(self._k, io, self._rows_p[2], self._n)
         if code:
             _raise(code)
@@ -429,13 +427,13 @@ class FusionKernel:
             _raise(code)
         return _FUSION_OUT["axles"].unpack_from(io, 8 * 21) + self.rows
 
-    def heading(self, mag, phi: float, x, P, age: int) -> tuple:
+    def heading(self, *values) -> tuple:
         """What a new magnetometer reading gives (0: nothing; 1: its NIS only; 2: a heading), the heading [rad], its
-        variance [rad2] and its NIS (:meth:`sideslip.estimators.fusion.magnetometer.MagnetometerHeading.measure`)."""
+        variance [rad2] and its NIS, of the reading (x, y, z), the roll model's roll, the state's ``G_Y``, ``PSI``,
+        ``B_MAG``, the covariance's ``(G_Y, G_Y)``, ``(PSI, PSI)``, ``(B_MAG, B_MAG)``, ``(PSI, B_MAG)`` and the
+        reading's age [samples] (:meth:`sideslip.estimators.fusion.magnetometer.MagnetometerHeading._reading`)."""
         io = self._io
-        _FUSION_IN["heading"].pack_into(io, 0, *mag, phi, x.item(_G_Y), x.item(_PSI), x.item(_B_MAG),
-                                        P.item(_G_Y, _G_Y), P.item(_PSI, _PSI), P.item(_B_MAG, _B_MAG),
-                                        P.item(_PSI, _B_MAG), age)
+        _FUSION_IN["heading"].pack_into(io, 0, *values)
         code = self._heading(self._k, io)
         if code:
             _raise(code)

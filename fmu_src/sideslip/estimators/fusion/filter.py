@@ -64,8 +64,6 @@ class SideslipFusion(Estimator):
         self._max_lag = history - 2
         # the delay state: the body's accelerations of its samples for its Jacobian
         self._acc_line = DelayLine(history, 2) if cfg.delay_state else None
-        # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
-        # whose likelihoods need the per-sample (white) noise
         # the scalar models compiled where they run (the same doubles as the Python's)
         compiled = (kernel.FusionKernel((*self._geometry, GRAVITY, ts, cfg.utilisation_max,
                                          float(v.drive_split_front <= 0.0), cfg.mag_norm_gate, cfg.mag_declination,
@@ -74,6 +72,8 @@ class SideslipFusion(Estimator):
                                          *self._conditioner.kernel_constants()), len(x0))
                     if cfg.compiled and kernel.available() else None)
         self._conditioner.compiled = None if compiled is None else compiled.inputs
+        # the EKF's robustness: correlated model error, covariance matching, Huber; the IMM's is its slide filter,
+        # whose likelihoods need the per-sample (white) noise
         self._model = FusionModel(cfg, self._geometry, v.drive_split_front <= 0.0, q, p_cap, bounds,
                                   robust=cfg.formulation == EKF, compiled=compiled)
         # the samples a delayed fix needs: the filters' own (extrapolation) or the inputs and snapshots (re-run)

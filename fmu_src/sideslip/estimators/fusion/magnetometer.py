@@ -74,8 +74,9 @@ class MagnetometerHeading:
             return None
         self._last = mag
         age, self._age = self._age, 0
-        what, psi_m, r, nis = (self._reading(mag, phi, x, P, age) if self._compiled is None
-                               else self._compiled(mag, phi, x, P, age))
+        what, psi_m, r, nis = (self._reading(mag, phi, x, P, age) if self._compiled is None else self._compiled(
+            *mag, phi, x.item(_G_Y), x.item(_PSI), x.item(_B_MAG), P.item(_G_Y, _G_Y), P.item(_PSI, _PSI),
+            P.item(_B_MAG, _B_MAG), P.item(_PSI, _B_MAG), age))
         if what == 0.0:
             return None
         # the readings' consistency, each one's error counted once: a heading error that lasts (a hard iron not

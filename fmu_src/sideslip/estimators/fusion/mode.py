@@ -40,7 +40,7 @@ from .state import Fs
 
 __all__ = ["Mode", "FusionModel"]
 
-_VY, _LN_CF, _LN_CR, _LN_MU = int(Fs.VY), int(Fs.LN_CF), int(Fs.LN_CR), int(Fs.LN_MU)
+_VX, _VY, _LN_CF, _LN_CR, _LN_MU, _E_W = (int(s) for s in (Fs.VX, Fs.VY, Fs.LN_CF, Fs.LN_CR, Fs.LN_MU, Fs.E_W))
 
 
 class Mode:
@@ -126,8 +126,10 @@ class FusionModel:
         q = self.q * (kf.P.ravel()[::len(kf.x) + 1] < self.p_cap)      # (the diagonal's view)
         q[_VY] += mode.q_vy
         kf.predict(xp, F, q)
-        self._huber_update(kf, wheel_measurement(kf.x, inp, self.front_undriven) if self._compiled_wheel is None
-                           else self._compiled_wheel(kf.x, inp.delta, inp.v_wheel, inp.ax))
+        x = kf.x
+        self._huber_update(kf, wheel_measurement(x, inp, self.front_undriven) if self._compiled_wheel is None
+                           else self._compiled_wheel(x.item(_VX), x.item(_E_W), x.item(_LN_MU), inp.delta,
+                                                     inp.v_wheel, inp.ax))
         loglik = self._tire_updates(mode, inp, vx_ref) if vx_ref > self.config.v_min else 0.0
         self.bound(kf)
         return loglik
