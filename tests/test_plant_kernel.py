@@ -122,8 +122,8 @@ def test_the_win64_kernel_exports_its_functions_and_needs_only_system_dlls(fmu_d
                    "sideslip_plant_kernel_version",
                    "sideslip_driver_step", "sideslip_driver_io_size", "sideslip_driver_plan_size",
                    "sideslip_lqr_step", "sideslip_lqr_io_size", "sideslip_lqr_law_size", "sideslip_lqr_design_size",
-                   *(f"sideslip_fusion_{name}" for name in ("inputs", "kinematic", "wheel", "axles", "heading", "io_size",
-                                                            "constants_size"))):
+                   *(f"sideslip_fusion_{name}" for name in ("inputs", "kinematic", "wheel", "axles", "heading",
+                                                            "io_size", "constants_size"))):
         assert symbol in text
     assert {line.split()[-1].lower() for line in text.splitlines() if "DLL Name:" in line} <= {"kernel32.dll",
                                                                                                "msvcrt.dll"}
