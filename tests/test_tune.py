@@ -2,6 +2,7 @@
 which the command line and the FMUs accept."""
 import csv
 import json
+import math
 import subprocess
 import sys
 import zipfile
@@ -168,19 +169,32 @@ def test_straight_drives_and_responsiveness_are_constraints_not_objectives(tmp_p
     from sideslip.studies.control_eval import tuning
     moving = {"rms_yaw_rate_error_deg_s": 2.0, "effort_Nms": 3000.0, "max_abs_beta_deg": 4.0, "saturated_pct": 0.0,
               "rms_dMz_dt": 1.0, "sim_seconds": 5.0}
-    fmvss = {**moving, "yaw_stable": True, "lateral_1p07s": 1.7, "max_abs_beta_deg": 4.0}
+    fmvss = {**moving, "yaw_stable": True, "lateral_1p07s": 1.7, "max_abs_beta_deg": 4.0, "effort_Nms": 2000.0}
     moving = {**moving, "max_abs_beta_deg": 8.0}
     figures = tuning.objectives([moving, fmvss, {"straight": True, "rms_Mz_cmd": 70.0, "sim_seconds": 14.0}])
-    assert figures["effort_kNms"] == 3.0 and figures["max_abs_beta_deg"] == 6.0 and figures["sim_seconds"] == 24.0
+    assert figures["effort_kNms"] == 2.5 and figures["max_abs_beta_deg"] == 6.0 and figures["sim_seconds"] == 24.0
     assert figures["straight_rms_Mz_cmd"] == 70.0 and figures["fmvss_lateral_m"] == 1.7
     assert figures["fmvss_max_abs_beta_deg"] == 4.0                  # the FMVSS run's alone
+    assert figures["fmvss_effort_kNms"] == 2.0
     two = tuning.objectives([fmvss, {**fmvss, "lateral_1p07s": 1.9}])
     assert two["fmvss_lateral_m"] == pytest.approx(1.8) and two["fmvss_lateral_se_m"] == pytest.approx(0.1)
+    # the bar's error is the seeds' scatter within a maneuver, not the spread between maneuvers (roads, cars)
+    runs = [{**fmvss, "scenario": name, "lateral_1p07s": y} for name, y in
+            (("mu05", 1.60), ("mu05", 1.62), ("mu08", 2.60), ("mu08", 2.64))]
+    four = tuning.objectives(runs)
+    assert four["fmvss_lateral_m"] == pytest.approx(2.115)
+    assert four["fmvss_lateral_se_m"] == pytest.approx(math.sqrt(0.0002 / 2 + 0.0008 / 2) / 2)
     # the bar less its standard error: a point within it of the ESC's mean is responsive enough
     assert tuning.constraints(figures, two)["responsive"] == pytest.approx(1.8 - 0.1 - 1.7)
     assert tuning.constraints(figures, {"fmvss_lateral_m": 1.8, "fmvss_stable": 1,
                                         "fmvss_max_abs_beta_deg": 3.5}) == pytest.approx(
-        {"straight": 70.0 - tuning.STRAIGHT_RMS_MAX, "responsive": 0.1, "stable": 0.0, "sideslip": 0.5})
+        {"straight": 70.0 - tuning.STRAIGHT_RMS_MAX, "responsive": 0.1, "stable": 0.0, "sideslip": 0.5,
+         "effort": 0.0})
+    # the FMVSS runs' effort against the cap (1.2) times the ESC's: 2.0 kN m s is within 1.2 x 1.7, not 1.2 x 1.6
+    cap = tuning.EFFORT_CAP
+    within, beyond = (tuning.constraints(figures, {"fmvss_effort_kNms": esc})["effort"] for esc in (1.7, 1.6))
+    assert within == pytest.approx(2.0 - cap * 1.7) and within < 0.0
+    assert beyond == pytest.approx(2.0 - cap * 1.6) and beyond > 0.0
     # a point that leaves an FMVSS run unstable the ESC holds is infeasible
     unstable = tuning.objectives([moving, {**fmvss, "yaw_stable": False}])
     assert unstable["fmvss_stable"] == 0 and tuning.constraints(unstable, {"fmvss_stable": 1})["stable"] == 1.0

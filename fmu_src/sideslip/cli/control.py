@@ -116,8 +116,8 @@ def control_case_set(args) -> list:
 
 def _cmd_tune(args) -> int:
     from ..fmi.param_file import read_param_file
-    from ..studies.control_eval.study import EFFORT_CAP, run_study
-    from ..studies.control_eval.tuning import OBJECTIVES
+    from ..studies.control_eval.study import run_study
+    from ..studies.control_eval.tuning import EFFORT_CAP, OBJECTIVES
 
     if args.source not in (None, "truth"):
         from ..estimators import ESTIMATORS

@@ -16,11 +16,12 @@ A study (:func:`run_study`):
    ``dev_points`` of it, spread along the tracking axis, the points it was started from (``start``: e.g. another
    study's choice; TPE's fronts differ much between studies), the shipped point and the baseline ESC (on the same
    source) on the development set, and chooses what the LQR has to earn against the ESC: among the points with
-   at most :data:`EFFORT_CAP` times the ESC's effort, at least as many FMVSS 126 runs yaw-stable and within the
-   constraints (:func:`~sideslip.studies.control_eval.tuning.constraints`: the straight drive quiet, the FMVSS
-   runs as responsive as the ESC's, within its standard error, and with no more sideslip), the smallest sum of
-   yaw-rate error and max ``|beta|``, each over the ESC's
-   (without such a point, the smallest sum of all three ratios among those keeping the FMVSS 126 runs stable and
+   at most :data:`~sideslip.studies.control_eval.tuning.EFFORT_CAP` times the ESC's effort, at least as many
+   FMVSS 126 runs yaw-stable and within the constraints
+   (:func:`~sideslip.studies.control_eval.tuning.constraints`: the straight drive quiet, the FMVSS runs as
+   responsive as the ESC's, within its standard error, with no more sideslip and at most the same multiple of its
+   effort), the smallest sum of yaw-rate error and max ``|beta|``, each over the ESC's (without such a point, the
+   smallest sum of all three ratios among those keeping the FMVSS 126 runs stable and
    within the constraints, or failing that stable);
 3. writes the chosen point as a parameter file (``chosen.json``, ``chosen.ssv``:
    :mod:`sideslip.fmi.param_file`), every point (``trials.csv``), the Pareto-front plot (``pareto.png``) and
@@ -46,14 +47,12 @@ from ...fmi.param_file import write_param_file
 from ...progress import progress_bar
 from ...scenarios import get_scenario
 from ..jobs import ResultLog, parallel_map, worker_pool
-from .tuning import (DEVELOPMENT_SEEDS, DEVELOPMENT_SET, OBJECTIVES, SEARCH_SPACE, TRAINING_SEEDS, TRAINING_SET,
-                     constraints, defaults, evaluate_case, objectives, tuning_cases)
+from .tuning import (DEVELOPMENT_SEEDS, DEVELOPMENT_SET, EFFORT_CAP, OBJECTIVES, SEARCH_SPACE, TRAINING_SEEDS,
+                     TRAINING_SET, constraints, defaults, evaluate_case, objectives, tuning_cases)
 
 __all__ = ["run_study", "SAMPLERS", "STUDY_NAME"]
 
 STUDY_NAME = "lqr"
-EFFORT_CAP = 1.2
-"""The most effort a chosen point may spend, in multiples of the baseline ESC's on the development set."""
 SAMPLERS = ("tpe", "nsga2")
 _OWNER = "owner"            # user attribute: host:pid of the process that asked for the point
 
@@ -339,7 +338,8 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
     chosen = by_number[int(best)]
     info = {"study": study.study_name, "trial": chosen.number, "source": source or "truth",
             "training": {k: chosen.user_attrs.get(k) for k in (*OBJECTIVES, "fmvss_stable", "fmvss_runs",
-                                                                "fmvss_lateral_m", "straight_rms_Mz_cmd")},
+                                                                "fmvss_lateral_m", "fmvss_max_abs_beta_deg",
+                                                                "fmvss_effort_kNms", "straight_rms_Mz_cmd")},
             "development": scores[best], "shipped_development": scores.get("shipped"), "esc_development": esc,
             "within_effort_cap": bool(ok), "development_score": rank[best]}
     files = [write_param_file(out / "chosen.json", "LqrDycController", chosen.params, info),

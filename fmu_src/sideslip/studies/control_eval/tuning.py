@@ -3,27 +3,28 @@
 The sets are disjoint from the control evaluation's (:data:`~sideslip.studies.control_eval.SCENARIOS`, the FMVSS 126
 runs on the SUV at mu 0.8, seeds 0 and 1), which is the study's test set:
 
-* **training** (:data:`TRAINING_SET`, seeds :data:`TRAINING_SEEDS`): what the optimiser sees - FMVSS 126 at mu 0.5,
-  Pi 2011's sine steer on mu 0.8 at 80 km/h (the SUV), the estimator benchmark's training brake in a turn on snow
-  and J-turn on a wet road (Sonata), its sine steer on snow and its sine steer while the friction drops from 1.0
-  to 0.35 and returns (SUV, 22 s), a spin-out braking in a turn on snow with the rear brakes saturating (SUV),
-  FMVSS 126 at 2A on mu 0.5 on a car that spins from there uncontrolled (Sonata) and a straight drive (SUV,
-  12 -> 28 m/s);
+* **training** (:data:`TRAINING_SET`, seeds :data:`TRAINING_SEEDS`): what the optimiser sees - FMVSS 126 at mu 0.5
+  (the SUV at 2.5A, 5A and 6.5A) and at 6A on mu 0.8 (the Sonata), Pi 2011's sine steer on mu 0.8 at 80 km/h (the
+  SUV), the estimator benchmark's training brake in a turn on snow and J-turn on a wet road (Sonata), its sine steer
+  on snow and its sine steer while the friction drops from 1.0 to 0.35 and returns (SUV, 22 s), a spin-out braking in
+  a turn on snow with the rear brakes saturating (SUV), FMVSS 126 at 2A on mu 0.5 on a car that spins from there
+  uncontrolled (Sonata) and a straight drive (SUV, 12 -> 28 m/s);
 * **development** (:data:`DEVELOPMENT_SET`, seeds :data:`DEVELOPMENT_SEEDS`): where the Pareto front's points are
-  compared with the baseline ESC and one is chosen - FMVSS 126 at mu 0.5 at other amplitudes, Pi 2011's sine
-  steer on mu 0.5 at 60 km/h, the benchmark's development J-turn on ice (SUV) and friction drop (small car), a
-  spin-out braking in a turn on ice (small car), FMVSS 126 at 4A on mu 0.8 (Sonata) and a straight drive (small
-  car, 14 -> 26 m/s).
+  compared with the baseline ESC and one is chosen - FMVSS 126 at mu 0.5 at other amplitudes (the SUV at 3A, 4A
+  and 6A), Pi 2011's sine steer on mu 0.5 at 60 km/h, the benchmark's development J-turn on ice (SUV) and friction
+  drop (small car), a spin-out braking in a turn on ice (small car), FMVSS 126 at 4A and 6.5A on mu 0.8 (Sonata) and
+  a straight drive (small car, 14 -> 26 m/s).
 
-The objectives (:data:`OBJECTIVES`) are means over the maneuvers.  Four constraints (:func:`constraints`), which
+The objectives (:data:`OBJECTIVES`) are means over the maneuvers.  Five constraints (:func:`constraints`), which
 the sampler is told of (Optuna's trial constraints: the samplers and the Pareto front prefer the points within
 them) and the choice keeps: the straight drives' ``RMS Mz_cmd <= STRAIGHT_RMS_MAX`` (the sensors' noise through the
 command on a straight road); FMVSS 126's responsiveness - the mean lateral displacement 1.07 s after the
 beginning of steer of the FMVSS runs at 5A and more no smaller than the baseline ESC's on the same runs less that
 mean's standard error (the ESC passes the criterion where the LQR is to; on mu 0.5 no controller reaches its
 1.83 m, so the ESC is the bar, measured on a few runs); FMVSS 126's yaw stability - no more of the FMVSS runs
-failing it than the ESC fails; and FMVSS 126's sideslip - the mean max ``|beta|`` of the FMVSS runs no larger than
-the ESC's (the means over every maneuver are dominated by the spin-outs, where the two differ by far more).
+failing it than the ESC fails; FMVSS 126's sideslip - the mean max ``|beta|`` of the FMVSS runs no larger than
+the ESC's; and FMVSS 126's effort - the mean effort of the FMVSS runs at most :data:`EFFORT_CAP` times the ESC's
+(the means over every maneuver are dominated by the spin-outs, where the two differ by far more).
 
 All under ``sensors+mismatch`` (sensor errors; the plant on Magic Formula tires and the controller's vehicle
 perturbed from the plant's).  A run's figures are those of the control evaluation
@@ -40,29 +41,35 @@ from .cases import ControlCase, Source
 from .engines import run_control_case
 
 __all__ = ["TRAINING_SET", "TRAINING_SEEDS", "DEVELOPMENT_SET", "DEVELOPMENT_SEEDS", "CONDITION", "SEARCH_SPACE",
-           "OBJECTIVES", "STRAIGHT", "STRAIGHT_RMS_MAX", "tuning_cases", "evaluate_case", "objectives", "constraints",
+           "OBJECTIVES", "STRAIGHT", "STRAIGHT_RMS_MAX", "EFFORT_CAP", "tuning_cases", "evaluate_case", "objectives",
+           "constraints",
            "defaults"]
 
 _SINE = {"maneuver_t_start": 1.0, "duration": 5.0}
 """A sine with dwell from 1 s, run 5 s: the 1.75 s criterion falls inside."""
-TRAINING_SET = (("fmvss126_suv_mu05_a5.0", _SINE), ("fmvss126_suv_mu05_a6.5_right", _SINE), ("pi2011_high", {}),
+TRAINING_SET = (("fmvss126_suv_mu05_a5.0", _SINE), ("fmvss126_suv_mu05_a6.5_right", _SINE),
+                ("fmvss126_suv_mu05_a2.5", _SINE), ("fmvss126_sonata_mu08_a6.0", _SINE), ("pi2011_high", {}),
                 ("bench_train_bit_sonata_snow", {}), ("bench_train_jturn_sonata_wet", {}),
                 ("bench_train_sine_suv_snow", {"duration": 12.0}), ("bench_train_changing_mu_suv", {"duration": 22.0}),
                 ("control_tune_bit_suv_snow_spin", {}), ("fmvss126_sonata_mu05_a2.0", _SINE),
                 ("control_tune_straight_suv", {}))
-"""``(scenario, overrides)`` of the training set (106 simulated seconds per seed)."""
+"""``(scenario, overrides)`` of the training set (116 simulated seconds per seed)."""
 TRAINING_SEEDS = (100, 101)
-DEVELOPMENT_SET = (("fmvss126_suv_mu05_a6.0", _SINE), ("fmvss126_suv_mu05_a4.0_right", _SINE), ("pi2011_medium", {}),
-                   ("bench_dev_jturn_suv_ice", {}), ("bench_dev_changing_mu_asm", {"duration": 14.0}),
-                   ("control_dev_bit_asm_ice_spin", {}), ("fmvss126_sonata_mu08_a4.0_right", _SINE),
+DEVELOPMENT_SET = (("fmvss126_suv_mu05_a6.0", _SINE), ("fmvss126_suv_mu05_a4.0_right", _SINE),
+                   ("fmvss126_suv_mu05_a3.0_right", _SINE), ("pi2011_medium", {}), ("bench_dev_jturn_suv_ice", {}),
+                   ("bench_dev_changing_mu_asm", {"duration": 14.0}), ("control_dev_bit_asm_ice_spin", {}),
+                   ("fmvss126_sonata_mu08_a4.0_right", _SINE), ("fmvss126_sonata_mu08_a6.5_right", _SINE),
                    ("control_dev_straight_asm", {}))
-"""``(scenario, overrides)`` of the development set (74 simulated seconds per seed)."""
+"""``(scenario, overrides)`` of the development set (84 simulated seconds per seed)."""
 DEVELOPMENT_SEEDS = (200, 201)
 CONDITION = "sensors+mismatch"
 STRAIGHT = ("control_tune_straight_suv", "control_dev_straight_asm")
 """The straight drives of the sets: the constraint, not the objectives."""
 STRAIGHT_RMS_MAX = 50.0
 """[N m] the most RMS ``Mz_cmd`` a point may command on a straight drive (the control evaluation's bound)."""
+EFFORT_CAP = 1.2
+"""The most effort a point may spend, in multiples of the baseline ESC's on the same runs (the FMVSS runs', a
+constraint; a set's, the choice's)."""
 
 SEARCH_SPACE = {
     "q_beta": ("log", 1e8, 1e13),
@@ -136,6 +143,7 @@ def evaluate_case(item) -> dict:
         out["yaw_stable"] = bool(row["yaw_stable"])
         if row["factor"] >= 5.0:                    # where FMVSS 126 asks for the lateral displacement
             out["lateral_1p07s"] = float(row["lateral_1p07s"])
+            out["scenario"] = case.scenario
     return out
 
 
@@ -143,22 +151,24 @@ def objectives(rows: list[dict]) -> dict:
     """The :data:`OBJECTIVES` and the study's other figures of one point's runs (means over the maneuvers unless
     named): ``worst_max_abs_beta_deg``, ``saturated_pct``, ``rms_dMz_dt``, ``fmvss_stable`` (FMVSS runs
     yaw-stable), ``fmvss_runs``, ``fmvss_lateral_m`` (the mean lateral displacement of the FMVSS runs at 5A and
-    more, 0 without one) and its standard error ``fmvss_lateral_se_m`` (the runs' std over the root of their number,
-    0 with fewer than two), ``fmvss_max_abs_beta_deg`` (the mean max ``|beta|`` of the FMVSS runs, 0 without one),
+    more, 0 without one) and its standard error ``fmvss_lateral_se_m`` (from the seeds' scatter alone:
+    :func:`_seed_standard_error`), ``fmvss_max_abs_beta_deg`` (the mean max ``|beta|`` of the FMVSS runs, 0 without one),
+    ``fmvss_effort_kNms`` (their mean effort, 0 without one),
     ``straight_rms_Mz_cmd`` (the largest over the straight drives, 0 without one), ``sim_seconds`` (every run)."""
     moving = [r for r in rows if not r.get("straight")]
     mean = lambda key: float(np.mean([r[key] for r in moving]))          # noqa: E731
-    fmvss = [r["yaw_stable"] for r in moving if "yaw_stable" in r]
-    lateral = [r["lateral_1p07s"] for r in moving if "lateral_1p07s" in r]
+    fmvss_runs = [r for r in moving if "yaw_stable" in r]
+    fmvss = [r["yaw_stable"] for r in fmvss_runs]
+    lateral = [r for r in moving if "lateral_1p07s" in r]
     out = {"rms_yaw_rate_error_deg_s": mean("rms_yaw_rate_error_deg_s"), "effort_kNms": mean("effort_Nms") / 1e3,
            "max_abs_beta_deg": mean("max_abs_beta_deg"),
            "worst_max_abs_beta_deg": float(max(r["max_abs_beta_deg"] for r in moving)),
            "saturated_pct": mean("saturated_pct"), "rms_dMz_dt": mean("rms_dMz_dt"),
            "fmvss_stable": int(sum(fmvss)), "fmvss_runs": len(fmvss),
-           "fmvss_lateral_m": float(np.mean(lateral or [0.0])),
-           "fmvss_lateral_se_m": float(np.std(lateral, ddof=1) / math.sqrt(len(lateral))) if len(lateral) > 1 else 0.0,
-           "fmvss_max_abs_beta_deg": float(np.mean([r["max_abs_beta_deg"] for r in moving if "yaw_stable" in r]
-                                                   or [0.0])),
+           "fmvss_lateral_m": float(np.mean([r["lateral_1p07s"] for r in lateral] or [0.0])),
+           "fmvss_lateral_se_m": _seed_standard_error(lateral, "lateral_1p07s"),
+           "fmvss_max_abs_beta_deg": float(np.mean([r["max_abs_beta_deg"] for r in fmvss_runs] or [0.0])),
+           "fmvss_effort_kNms": float(np.mean([r["effort_Nms"] for r in fmvss_runs] or [0.0])) / 1e3,
            "straight_rms_Mz_cmd": float(max((r["rms_Mz_cmd"] for r in rows if r.get("straight")), default=0.0)),
            "sim_seconds": float(sum(r["sim_seconds"] for r in rows))}
     if not all(math.isfinite(out[k]) for k in (*OBJECTIVES, "straight_rms_Mz_cmd")):
@@ -166,19 +176,33 @@ def objectives(rows: list[dict]) -> dict:
     return out
 
 
+def _seed_standard_error(runs: list[dict], key: str) -> float:
+    """The standard error of the mean of ``key`` over ``runs`` that the seeds alone make: each maneuver's (a run's
+    ``scenario``) variance over its seeds, the maneuvers' means averaged (equal seeds per maneuver: the runs' mean).
+    The spread between maneuvers (one car on two roads: a metre apart) is no uncertainty of the bar.  Runs without a
+    scenario count as one maneuver; 0 without a maneuver run twice."""
+    groups: dict = {}
+    for r in runs:
+        groups.setdefault(r.get("scenario"), []).append(r[key])
+    var = [np.var(v, ddof=1) / len(v) for v in groups.values() if len(v) > 1]
+    return float(math.sqrt(sum(var)) / len(groups)) if var else 0.0
+
+
 def constraints(figures: dict, esc: dict | None = None) -> dict:
     """The study's constraints of a point's :func:`objectives` (feasible when none is above 0): ``straight``
     = ``straight_rms_Mz_cmd - STRAIGHT_RMS_MAX`` [N m], ``responsive`` = the ESC's ``fmvss_lateral_m`` (its
     :func:`objectives` on the same runs, ``esc``) less its standard error and the point's [m] (a bar measured on a
-    few runs, which the seeds alone move), ``stable`` = the ESC's ``fmvss_stable`` less the point's [runs]
-    and ``sideslip`` = the point's ``fmvss_max_abs_beta_deg`` less the
-    ESC's [deg]; a figure not measured (no ESC, no such run, a point of an older study) constrains nothing."""
+    few runs, which the seeds alone move), ``stable`` = the ESC's ``fmvss_stable`` less the point's [runs],
+    ``sideslip`` = the point's ``fmvss_max_abs_beta_deg`` less the ESC's [deg] and ``effort`` = the point's
+    ``fmvss_effort_kNms`` less :data:`EFFORT_CAP` times the ESC's [kN m s]; a figure not measured (no ESC, no such
+    run, a point of an older study) constrains nothing."""
     esc = esc or {}
 
-    def below(key):
+    def below(key, scale=1.0):
         mine, bar = figures.get(key), esc.get(key)
-        return bar - mine if mine is not None and bar is not None else 0.0
+        return scale * bar - mine if mine is not None and bar is not None else 0.0
 
     return {"straight": figures.get("straight_rms_Mz_cmd", 0.0) - STRAIGHT_RMS_MAX,
             "responsive": below("fmvss_lateral_m") - esc.get("fmvss_lateral_se_m", 0.0),
-            "stable": float(below("fmvss_stable")), "sideslip": -below("fmvss_max_abs_beta_deg")}
+            "stable": float(below("fmvss_stable")), "sideslip": -below("fmvss_max_abs_beta_deg"),
+            "effort": -below("fmvss_effort_kNms", EFFORT_CAP)}
