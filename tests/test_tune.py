@@ -151,6 +151,11 @@ def test_control_case_sets_default_quick_plants_and_a_parameter_file(tmp_path):
     assert len(quick) == (6 + 5) * 2 * len(SOURCES) + (4 + 1) * 5
     assert all(c.plant == "own" for c in _control_args("--quick", "--plant", "own"))
     assert all(c.plant == OFF_PLANT for c in _control_args("--quick", "--plant", OFF_PLANT))
+    # any of CommonRoad's cars, each with the off-plant rows and runs; a plant not known: the known ones named
+    two = _control_args("--quick", "--plant", "commonroad2", "--plant", "commonroad1")
+    assert {c.plant for c in two} == {"commonroad1", "commonroad2"} and len(two) == 2 * (4 + 1) * 5
+    with pytest.raises(ValueError, match="--plant 'commonroad4': plants are own, commonroad1, commonroad2"):
+        _control_args("--plant", "commonroad4")
     write_param_file(tmp_path / "p.json", "LqrDycController", {"q_gamma": 2e9, "friction_source": 0})
     tuned = _control_args("--quick", "--params", str(tmp_path / "p.json"))
     for c in tuned:                           # the drivable LQR rows; the published one stays the paper's

@@ -57,9 +57,10 @@ def _register_control(sub) -> None:
     ctl.add_argument("--source", action="append", help="only this row, e.g. 'LQR / truth' (repeatable)")
     ctl.add_argument("--factors", help="FMVSS 126 amplitudes in multiples of A, comma-separated "
                      "(default 1.5 to 6.5 in 0.5 steps)")
-    ctl.add_argument("--plant", action="append", help="own (the project's plant) or commonroad3 (CommonRoad's VW "
-                     "Vanagon: FMVSS 126 and the brake in a turn on snow, five rows; quick: 5A and 6.5A); "
-                     "repeatable, default both")
+    ctl.add_argument("--plant", action="append", help="own (the project's plant) or commonroad1-3 (CommonRoad's "
+                     "Ford Escort, BMW 320i, VW Vanagon, each known by its identified vehicle file: FMVSS 126 and "
+                     "the brake in a turn on snow, five rows; quick: 5A and 6.5A); repeatable, default own and "
+                     "commonroad3")
     ctl.add_argument("--param", action="append", metavar="NAME=VALUE",
                      help="controller parameter, for every row whose controller has it")
     params_file_arg(ctl)
@@ -80,6 +81,7 @@ def control_case_set(args) -> list:
     """The cases the options of ``control`` choose (rows, amplitudes, plants, seeds, parameters)."""
     from ..scenarios import FMVSS_FACTORS
     from ..studies import control_eval as ce
+    from ..studies.drives import OWN, PLANTS
 
     sources = ce.SOURCES
     if args.source:
@@ -90,15 +92,17 @@ def control_case_set(args) -> list:
         sources = tuple(known[s] for s in args.source)
     factors = tuple(float(f) for f in args.factors.split(",")) if args.factors else (
         ce.QUICK_FACTORS if args.quick else FMVSS_FACTORS)
-    off = args.plant is None or ce.OFF_PLANT in args.plant
-    if args.plant and set(args.plant) - {"own", ce.OFF_PLANT}:
-        raise ValueError(f"--plant {sorted(set(args.plant) - {'own', ce.OFF_PLANT})[0]!r}: plants are own and "
-                         f"{ce.OFF_PLANT}")
+    plants = list(dict.fromkeys(args.plant or [OWN, ce.OFF_PLANT]))
+    unknown = [p for p in plants if p not in PLANTS]
+    if unknown:
+        raise ValueError(f"--plant {unknown[0]!r}: plants are {', '.join(PLANTS)}")
+    off_plants = tuple(p for p in plants if p != OWN)
     cases = ce.control_cases(sources, args.condition or ce.CONDITIONS, args.seeds or (1 if args.quick else 2),
-                             factors, scenarios=args.scenario or ce.SCENARIOS, off_plant=off,
-                             off_plant_factors=ce.QUICK_OFF_PLANT_FACTORS if args.quick and not args.factors else None)
-    if args.plant and "own" not in args.plant:
-        cases = [c for c in cases if c.plant != "own"]
+                             factors, scenarios=args.scenario or ce.SCENARIOS, off_plant=bool(off_plants),
+                             off_plant_factors=ce.QUICK_OFF_PLANT_FACTORS if args.quick and not args.factors else None,
+                             off_plants=off_plants)
+    if OWN not in plants:
+        cases = [c for c in cases if c.plant != OWN]
     if args.params:
         from ..fmi.param_file import read_param_file
 

@@ -100,19 +100,20 @@ one)."""
 
 
 def control_cases(sources=SOURCES, conditions=CONDITIONS, seeds=2, factors=FMVSS_FACTORS, directions=("", "_right"),
-                  scenarios=SCENARIOS, off_plant: bool = True, off_plant_factors=None) -> list[ControlCase]:
+                  scenarios=SCENARIOS, off_plant: bool = True, off_plant_factors=None,
+                  off_plants=(OFF_PLANT,)) -> list[ControlCase]:
     """Every scenario x condition x seed x row on the project's plant and, with ``off_plant``, the FMVSS 126 runs
     (at ``off_plant_factors``, default ``factors``) and :data:`OFF_PLANT_SCENARIOS` x seed x the rows of ``sources``
-    among :data:`OFF_PLANT_SOURCES` on :data:`OFF_PLANT` (under
-    :data:`~sideslip.studies.accuracy.OFF_PLANT_CONDITION`)."""
+    among :data:`OFF_PLANT_SOURCES` on each of ``off_plants`` (CommonRoad's, :data:`sideslip.studies.drives.PLANTS`;
+    default :data:`OFF_PLANT`), under :data:`~sideslip.studies.accuracy.OFF_PLANT_CONDITION`."""
     fmvss = fmvss_names(factors, directions)
     names = [*fmvss, *scenarios]
     out = [ControlCase(n, c, s, src) for n in names for c in conditions for s in range(seeds) for src in sources]
     if off_plant:
         off = [*fmvss_names(factors if off_plant_factors is None else off_plant_factors, directions),
                *(n for n in OFF_PLANT_SCENARIOS if n in scenarios)]
-        out += [ControlCase(n, OFF_PLANT_CONDITION, s, src, plant=OFF_PLANT) for n in off for s in range(seeds)
-                for src in sources if src.label in OFF_PLANT_SOURCES]
+        out += [ControlCase(n, OFF_PLANT_CONDITION, s, src, plant=plant) for plant in off_plants for n in off
+                for s in range(seeds) for src in sources if src.label in OFF_PLANT_SOURCES]
     return out
 
 
