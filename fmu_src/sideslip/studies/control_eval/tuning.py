@@ -42,8 +42,7 @@ from .engines import run_control_case
 
 __all__ = ["TRAINING_SET", "TRAINING_SEEDS", "DEVELOPMENT_SET", "DEVELOPMENT_SEEDS", "CONDITION", "SEARCH_SPACE",
            "OBJECTIVES", "STRAIGHT", "STRAIGHT_RMS_MAX", "EFFORT_CAP", "tuning_cases", "evaluate_case", "objectives",
-           "constraints",
-           "defaults"]
+           "constraints", "defaults"]
 
 _SINE = {"maneuver_t_start": 1.0, "duration": 5.0}
 """A sine with dwell from 1 s, run 5 s: the 1.75 s criterion falls inside."""
@@ -152,9 +151,9 @@ def objectives(rows: list[dict]) -> dict:
     named): ``worst_max_abs_beta_deg``, ``saturated_pct``, ``rms_dMz_dt``, ``fmvss_stable`` (FMVSS runs
     yaw-stable), ``fmvss_runs``, ``fmvss_lateral_m`` (the mean lateral displacement of the FMVSS runs at 5A and
     more, 0 without one) and its standard error ``fmvss_lateral_se_m`` (from the seeds' scatter alone:
-    :func:`_seed_standard_error`), ``fmvss_max_abs_beta_deg`` (the mean max ``|beta|`` of the FMVSS runs, 0 without one),
-    ``fmvss_effort_kNms`` (their mean effort, 0 without one),
-    ``straight_rms_Mz_cmd`` (the largest over the straight drives, 0 without one), ``sim_seconds`` (every run)."""
+    :func:`_seed_standard_error`), ``fmvss_max_abs_beta_deg`` (the mean max ``|beta|`` of the FMVSS runs, 0
+    without one), ``fmvss_effort_kNms`` (their mean effort, 0 without one), ``straight_rms_Mz_cmd`` (the largest
+    over the straight drives, 0 without one), ``sim_seconds`` (every run)."""
     moving = [r for r in rows if not r.get("straight")]
     mean = lambda key: float(np.mean([r[key] for r in moving]))          # noqa: E731
     fmvss_runs = [r for r in moving if "yaw_stable" in r]
