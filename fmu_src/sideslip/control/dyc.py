@@ -10,8 +10,8 @@
   is otherwise a standing moment ``g_gamma b``, 90 N m on the SUV at 18 m/s for 0.6 deg/s).
 
 Additions to the paper, each off by default (eq 25 as published) and switched on by a parameter (following
-``mu_hat`` and the nonlinear parts in the drivable profile only); the tuning study searches them, and its choice is
-a parameter file, ``examples/lqr_tuned.json``:
+``mu_hat`` and the nonlinear parts in the drivable profile only); the tuning study searches them, and a tuned point
+ships as a parameter file, ``examples/lqr_tuned.json``:
 
 * the weights scheduled on the friction the design is made for:
   ``q_beta (mu / mu_ref)^p_beta`` and ``q_gamma (mu / mu_ref)^p_gamma`` (``q_beta_mu_exponent``,
