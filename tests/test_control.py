@@ -650,6 +650,37 @@ def test_lqr_dead_band_band_limited_sideslip_feedback_sideslip_first_and_limiter
         -10.0 * ctl.vehicle.I_zz * (0.5 * sideslip_limit(1.0) + 0.02))
 
 
+def test_the_sideslip_limiter_ahead_acts_on_the_sideslip_plus_its_rate_times_the_lead():
+    """``t_beta_lead``: on a sideslip growing at a constant rate the limiter's moment is that of the sideslip ahead,
+    ``beta + t_beta_lead rate``, the rate through the low-pass at BETA_RATE_TAU (its steady lag on a ramp: the rate
+    times ``Ts / a``, ``a`` the low-pass's step); returning, the same lead releases it before the sideslip is back
+    within the bound.  Without the lead: the sideslip alone."""
+    from sideslip.control.base import BETA_RATE_TAU
+    rate, lead, Ts = -0.05, 0.2, 1e-3
+    a = 1.0 - math.exp(-Ts / BETA_RATE_TAU)
+
+    def run(beta_of_k, n, **values):
+        esc = BaselineEsc(EscConfig(vehicle="park2018_sonata", t_transfer=0.001, friction_source=0, **values))
+        for k in range(n):
+            esc.step(Ts, 0.0, 20.0, beta_of_k(k), 0.0)
+        return esc.outputs()[4], esc
+    ramp = lambda k: rate * k * Ts                     # noqa: E731 - the sideslip, 0.05 rad/s out of a left turn
+    ahead, esc = run(ramp, 4000, t_beta_lead=lead)
+    beta = ramp(3999)
+    rate_seen = rate * Ts / a / BETA_RATE_TAU
+    assert rate_seen == pytest.approx(rate, rel=0.02)
+    assert ahead == pytest.approx(-esc.K_beta * (abs(beta + lead * rate_seen) - esc.beta_limit), rel=1e-6)
+    plain, esc = run(ramp, 4000)
+    assert plain == pytest.approx(-esc.K_beta * (abs(beta) - esc.beta_limit), rel=1e-9)
+    # out to 1.5 deg beyond the bound, then back at the same rate for 0.4 s: 0.35 deg beyond it, less than the lead
+    # times the rate (0.57 deg): the lead has let go, the plain limiter has not
+    turn = round((esc.beta_limit + math.radians(1.5)) / (-rate * Ts))
+    out_and_back = lambda k: ramp(min(k, turn)) - rate * max(k - turn, 0) * Ts      # noqa: E731
+    assert run(out_and_back, turn + 400, t_beta_lead=lead)[0] == 0.0 > run(out_and_back, turn + 400)[0]
+    with pytest.raises(ParameterError, match="t_beta_lead"):
+        EscConfig(t_beta_lead=-0.1)
+
+
 def test_lqr_sideslip_feedback_within_the_band_and_beyond_it_only_turning_the_car_back():
     on = {"beta_feedback": 2}
     signs = set()

@@ -62,6 +62,8 @@ LOOPS = [
      lambda a: np.ptp(a["controller.Mz_cmd"]) > 1.0),
     ("park2018_case3", "sensors", "LQR / truth", (("Ts_control", 0.01), ("yaw_rate_source", 0), ("valid_gate", 0)),
      lambda a: np.ptp(a["controller.Mz_cmd"]) > 1.0),
+    ("control_tune_bit_sonata_snow_spin", "sensors+mismatch", "LQR / SideslipFusion", TUNED,    # limiter ahead
+     lambda a: np.max(np.abs(a["controller.Mz_fb"])) > 1000.0),
 ]
 
 
@@ -88,6 +90,7 @@ CONFIGS = {
     "two samples per step, yaw_rate_hat": {"Ts_control": 0.0005, "yaw_rate_source": 1, "beta_feedback": 2,
                                            "t_steer_offset": 0.5},
     "one sample in ten steps, mu_hat": {"Ts_control": 0.01, "valid_gate": 0, "k_integral": 1.0, "friction_source": 1},
+    "limiter ahead, mu_hat": {"k_beta": 30.0, "beta_limit_scale": 0.5, "t_beta_lead": 0.3, "friction_source": 1},
 }
 
 

@@ -506,21 +506,30 @@ with the sensors' noise, on other cars and speeds than the control evaluation's 
 for _sc in CONTROL_TUNING_STRAIGHT:
     _add(_sc)
 
+
+def _spin_out(name: str, description: str, vehicle: str, v: float, amplitude: float, rate: float, t_release: float,
+              duration: float, road_mu: str) -> Scenario:
+    """A braked spin-out of the tuning study: braking at 0.2 g in a turn from ``v`` [m/s], the handwheel at
+    ``amplitude`` [rad] (``rate`` [rad/s]) from 3 s to ``t_release`` [s], the brakes 50/50."""
+    return Scenario(name, description, "sideslip-fmu control tuning", vehicle,
+                    _spec("brake_in_turn", v0=v, v=v, amplitude=amplitude, rate=rate, t_start=3.0, t_release=t_release,
+                          decel=0.2 * GRAVITY, v_end=0.0, duration=duration), duration, road_mu=road_mu,
+                    sensors=dict(_BENCH_SENSORS), vehicle_overrides="brake_split_front=0.5", notes=_SPIN_NOTES)
+
+
 CONTROL_TUNING_SPIN = (
-    Scenario("control_tune_bit_suv_snow_spin", "Tuning (training): brake in a turn from 45 km/h on snow with a "
-             "50/50 brake balance, SUV, mu 0.3", "sideslip-fmu control tuning", "pi2011_suv",
-             _spec("brake_in_turn", v0=12.5, v=12.5, amplitude=3.0, rate=5.0, t_start=3.0, t_release=5.5,
-                   decel=0.2 * GRAVITY, v_end=0.0, duration=9.0), 9.0, road_mu="0.3",
-             sensors=dict(_BENCH_SENSORS), vehicle_overrides="brake_split_front=0.5", notes=_SPIN_NOTES),
-    Scenario("control_dev_bit_asm_ice_spin", "Tuning (development): brake in a turn from 47 km/h on ice with a "
-             "50/50 brake balance, small car, mu 0.25", "sideslip-fmu control tuning", "kim2016_asm",
-             _spec("brake_in_turn", v0=13.0, v=13.0, amplitude=4.0, rate=5.0, t_start=3.0, t_release=5.5,
-                   decel=0.2 * GRAVITY, v_end=0.0, duration=9.0), 9.0, road_mu="0.25",
-             sensors=dict(_BENCH_SENSORS), vehicle_overrides="brake_split_front=0.5", notes=_SPIN_NOTES),
+    _spin_out("control_tune_bit_suv_snow_spin", "Tuning (training): brake in a turn from 45 km/h on snow with a 50/50 "
+              "brake balance, SUV, mu 0.3", "pi2011_suv", 12.5, 3.0, 5.0, 5.5, 9.0, "0.3"),
+    _spin_out("control_dev_bit_asm_ice_spin", "Tuning (development): brake in a turn from 47 km/h on ice with a 50/50 "
+              "brake balance, small car, mu 0.25", "kim2016_asm", 13.0, 4.0, 5.0, 5.5, 9.0, "0.25"),
+    _spin_out("control_tune_bit_sonata_snow_spin", "Tuning (training): brake in a turn from 54 km/h on snow with a "
+              "50/50 brake balance, Sonata, mu 0.3", "park2018_sonata", 15.0, 2.6, 5.0, 5.5, 10.0, "0.3"),
+    _spin_out("control_dev_bit_sonata_snow_spin", "Tuning (development): brake in a turn from 52 km/h on snow with a "
+              "50/50 brake balance, Sonata, mu 0.32", "park2018_sonata", 14.5, 2.8, 4.0, 6.0, 10.0, "0.32"),
 )
 """Spin-outs of the LQR's tuning study: braking in a turn on a low-friction road with the rear brakes saturating
-(no electronic brake-force distribution), on other cars, speeds and roads than the control evaluation's
-``park2018_case5``."""
+(no electronic brake-force distribution), on other cars than the control evaluation's ``park2018_case5`` or, on its
+Sonata, at other speeds, steering, steering times and roads."""
 for _sc in CONTROL_TUNING_SPIN:
     _add(_sc)
 

@@ -51,7 +51,15 @@ this module turns it into the command the motors get:
   feedback (a car sliding out of a left turn has ``beta < 0`` and needs a negative moment).  ``beta_limit = 0``
   takes ``atan(0.02 mu g)`` on the design's friction (11 deg on dry asphalt, 3.4 deg on snow), a sideslip bound
   common in the DYC literature (:func:`sideslip_limit`), times ``beta_limit_scale`` (1: the literature's bound).
-  The baseline ESC's second part; the LQR adds it to its feedback when switched on;
+  The baseline ESC's second part; the LQR adds it to its feedback when switched on.  With ``t_beta_lead > 0`` it
+  acts on the sideslip ahead, ``beta_hat + t_beta_lead d(beta_hat)/dt`` (:meth:`YawMomentController._limiter`), the
+  beta-beta_dot phase plane's measure of stability (Inagaki, Kushiro and Yamamoto 1995, "Analysis on vehicle
+  stability in critical cornering using phase-plane method"): a sideslip that grows fast meets the limiter before
+  it is large, one that returns fast is released before the limiter's moment throws the car's yaw past the turn
+  (with the bound on sideslip alone, a stiff limiter does: the car yaws out of the turn and the yaw-rate feedback
+  then pushes it back into a spin).  ``d(beta_hat)/dt`` is the difference of the estimate and its first-order
+  low-pass at :data:`BETA_RATE_TAU` over that time constant, a rate band-limited against an estimate that
+  changes in steps;
 * **yaw-rate integral** (:meth:`YawMomentController._integrate`): the integral of the yaw-rate error beyond the
   dead band, with conditional integration (it does not grow while the command is saturated in the direction of
   the error) and bleeding off once the error is back inside the dead band (ESC releases when the car is back on
@@ -75,6 +83,7 @@ from ..vehicles import VehicleConfig, VehicleParams
 from .reference import ReferenceModel
 
 __all__ = ["SCHEDULE_ACCEL", "STRAIGHT_YAW_RATE", "STRAIGHT_STEER", "STEER_OFFSET_MAX", "FRICTION_STEPS",
+           "BETA_RATE_TAU",
            "YawMomentConfig", "yaw_moment_limit", "sideslip_limit", "smoothstep", "dead_zone", "Ramp",
            "YawMomentController"]
 
@@ -86,6 +95,9 @@ STEER_OFFSET_MAX = 0.01
 """[rad] largest steering offset learnt (road-wheel angle; about 10 deg at the handwheel)."""
 FRICTION_STEPS = 20
 """Friction grid of ``friction_source = 1``: ``mu_hat`` is rounded to ``k / FRICTION_STEPS`` (0.05)."""
+BETA_RATE_TAU = 0.05
+"""[s] time constant of the sideslip rate the limiter's lead uses (``t_beta_lead``): shorter than the yaw mode's
+(about 0.2 s), longer than an estimator's sample period (10 ms) whose steps it smooths."""
 
 
 @dataclass(frozen=True)
@@ -127,6 +139,8 @@ class YawMomentConfig(VehicleConfig):
                                     "acts when beta_limit is 0", ge=0.2, le=2.0)
     k_beta: float = param(0.0, "IntegralGain", "Sideslip-limiter gain: K_beta = k_beta I_zz (0: no limiter)", ge=0,
                           le=1.0e4)
+    t_beta_lead: float = param(0.0, "Time", "Lead of the sideslip limiter: it acts on beta_hat + t_beta_lead "
+                               "d(beta_hat)/dt (the beta-beta_dot phase plane; 0: on beta_hat alone)", ge=0, le=2.0)
 
     def __post_init__(self):
         check(self)
@@ -197,6 +211,7 @@ class YawMomentController(SampledModel):
         self._dmz = cfg.Mz_rate_max * self.Ts
         self._k_offset = self.Ts / cfg.t_steer_offset if cfg.t_steer_offset > 0 else 0.0
         self.K_beta = cfg.k_beta * self.vehicle.I_zz
+        self._a_rate = 1.0 - math.exp(-self.Ts / BETA_RATE_TAU)
         self.beta_limit = cfg.beta_limit if cfg.beta_limit > 0 else cfg.beta_limit_scale * sideslip_limit(cfg.mu)
         self.mu_design = cfg.mu                    # the friction the reference and the design follow now
         self.follows_friction = cfg.friction_source == 1
@@ -240,6 +255,7 @@ class YawMomentController(SampledModel):
         self.v_schedule = math.nan                 # set by the first sample
         self.steer_offset = 0.0
         self.integral = 0.0
+        self.beta_lowpass = math.nan               # the sideslip rate's low-pass (t_beta_lead), from the first sample
         self.Mz = 0.0
         self._parts = [0.0, 0.0]
         self._out = (0.0,) * len(self.output_names)
@@ -276,7 +292,16 @@ class YawMomentController(SampledModel):
         return w * (a + b)
 
     def _limiter(self, beta_hat: float, w_beta: float) -> float:
-        """The sideslip limiter's moment [N m] (module docstring), weighted by ``w_beta``."""
+        """The sideslip limiter's moment [N m] (module docstring), weighted by ``w_beta``; with ``t_beta_lead`` on the
+        sideslip ahead, which advances the rate's low-pass by one sample (called once per sample)."""
+        lead = self.config.t_beta_lead
+        if lead > 0.0:
+            lp = self.beta_lowpass
+            if lp != lp:                               # the first sample: no rate yet
+                lp = beta_hat
+            rate = (beta_hat - lp) / BETA_RATE_TAU     # d(beta_hat)/dt through a first-order low-pass
+            self.beta_lowpass = lp + self._a_rate * (beta_hat - lp)
+            beta_hat = beta_hat + lead * rate
         over = abs(beta_hat) - self.beta_limit
         # a car sliding out has the sideslip of the opposite sign to its (excess) yaw rate: a moment of
         # the sideslip's sign turns it back

@@ -33,11 +33,12 @@ ships as a parameter file, ``examples/lqr_tuned.json``:
   back (a moment of the sideslip's sign), not track a yaw rate into the slide: a car sliding out of a turn on
   snow is otherwise pushed further by the yaw-rate term, which asks for the reference's yaw rate the road cannot
   give;
-* the yaw-rate dead band, the sideslip limiter and the yaw-rate integral of :mod:`sideslip.control.base`
-  (``deadband``, ``k_beta``, ``k_integral``), the limiter's moment and ``g_gamma k_integral int(e) dt`` added to
-  the feedback.  The integral tells a yaw rate that persists from a transient one: a linear gain that stops a
-  spin-prone car yawing after a sine with dwell also holds back the first half-wave, where the car turns as much
-  as asked, and with it FMVSS 126's lateral displacement; the integral grows only while the error lasts.
+* the yaw-rate dead band, the sideslip limiter (with its lead on the sideslip's rate, the beta-beta_dot phase
+  plane) and the yaw-rate integral of :mod:`sideslip.control.base` (``deadband``, ``k_beta``, ``t_beta_lead``,
+  ``k_integral``), the limiter's moment and ``g_gamma k_integral int(e) dt`` added to the feedback.  The integral
+  tells a yaw rate that persists from a transient one: a linear gain that stops a spin-prone car yawing after a
+  sine with dwell also holds back the first half-wave, where the car turns as much as asked, and with it FMVSS 126's
+  lateral displacement; the integral grows only while the error lasts.
 
 Then saturation at what the in-wheel motors can give (:mod:`sideslip.control.base`).
 
@@ -80,8 +81,8 @@ from ..plant import kernel
 from ..plant.clock import StepClock
 from ..signals import LQR_OUTPUTS
 from ..vehicles import VehicleParams
-from .base import (STEER_OFFSET_MAX, STRAIGHT_STEER, STRAIGHT_YAW_RATE, YawMomentConfig, YawMomentController,
-                   dead_zone, yaw_moment_limit)
+from .base import (BETA_RATE_TAU, STEER_OFFSET_MAX, STRAIGHT_STEER, STRAIGHT_YAW_RATE, YawMomentConfig,
+                   YawMomentController, dead_zone, yaw_moment_limit)
 from .feedforward import ScheduledFeedforward, first_order_lowpass, second_order_lowpass
 from .lqr import gain_schedule
 
@@ -178,7 +179,8 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
             beta_std_ref=cfg.beta_std_ref, ramp_rate=self.Ts / cfg.t_transfer, a_beta=ref._a_beta,
             a_gamma=ref._a_gamma, gravity=GRAVITY, deadband=self._deadband, k_integral=self._k_integral,
             bleed=self._bleed, Ts=self.Ts, K_beta=self.K_beta, straight_yaw_rate=STRAIGHT_YAW_RATE,
-            straight_steer=STRAIGHT_STEER, steer_offset_max=STEER_OFFSET_MAX)).step
+            straight_steer=STRAIGHT_STEER, steer_offset_max=STEER_OFFSET_MAX, t_beta_lead=cfg.t_beta_lead,
+            a_rate=self._a_rate, beta_rate_tau=BETA_RATE_TAU)).step
 
     def _design(self, mu: float) -> dict:
         """The bicycle model on friction ``mu`` and its LQR gain schedule (the feed-forward stays at ``mu``)."""
@@ -225,11 +227,11 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
             self._follow_friction(mu_hat)
         clock, ref, parts = self._clock, self.reference, self._parts
         (clock.t, clock._base, n, clock._h, done, samples, self.v_schedule, self.enabled.value, self.beta_weight.value,
-         self.steer_offset, self.integral, mz, ref.beta, ref.gamma, parts[0], parts[1]) = native(
+         self.steer_offset, self.integral, mz, ref.beta, ref.gamma, parts[0], parts[1], self.beta_lowpass) = native(
             self, h, delta_m, vx_hat, beta_hat, yaw_rate, beta_valid, dyc_enable, beta_std, clock.t, clock._base,
             clock._n, math.nan if clock._h is None else clock._h, self._samples, 0.0, self.v_schedule,
             self.enabled.value, self.beta_weight.value, self.steer_offset, self.integral, self.Mz, ref.beta, ref.gamma,
-            parts[0], parts[1])
+            parts[0], parts[1], self.beta_lowpass)
         clock._n, self._samples, self.Mz = int(n), int(done), mz
         if samples:
             self._out = (mz, ref.beta, ref.gamma, parts[0], parts[1])

@@ -247,7 +247,8 @@ class LqrLaw(ctypes.Structure):
                 *((name, ctypes.c_double) for name in (
                     "clock_rounding", "v_min", "v_fade", "v_max", "dv", "dmz", "Mz_max", "k_offset", "beta_std_ref",
                     "ramp_rate", "a_beta", "a_gamma", "gravity", "deadband", "k_integral", "bleed", "Ts", "K_beta",
-                    "straight_yaw_rate", "straight_steer", "steer_offset_max"))]
+                    "straight_yaw_rate", "straight_steer", "steer_offset_max", "t_beta_lead", "a_rate",
+                    "beta_rate_tau"))]
 
 
 class LqrDesign(ctypes.Structure):
@@ -258,9 +259,9 @@ class LqrDesign(ctypes.Structure):
                     "l", "understeer_gradient", "l_r", "m", "l_f", "C_r", "mu", "beta_limit"))]
 
 
-LQR_IO = 24
+LQR_IO = 25
 """Values of one compiled controller step (lqr_kernel.c ``IO_*``)."""
-_LQR_IN, _LQR_OUT = struct.Struct("=24d"), struct.Struct("=16d")
+_LQR_IN, _LQR_OUT = struct.Struct("=25d"), struct.Struct("=17d")
 
 
 class LqrKernel:
@@ -304,8 +305,9 @@ class LqrKernel:
         ``beta_limit``): the step ``h`` (> 0), the inputs ``delta, vx_hat, beta_hat, yaw_rate, beta_valid, enable,
         beta_std``, the clock ``t, base, n, h_clock`` (NaN before the first step), ``samples_done``, a placeholder
         for the step's samples and the state ``v_schedule, enabled, beta_weight, steer_offset, integral, Mz,
-        beta_ref, gamma_ref, Mz_ff, Mz_fb`` in; returns the values from the clock on after the step, the step's
-        samples in the placeholder (lqr_kernel.c, :meth:`~sideslip.control.base.YawMomentController.step`)."""
+        beta_ref, gamma_ref, Mz_ff, Mz_fb, beta_lowpass`` in; returns the values from the clock on after the step,
+        the step's samples in the placeholder (lqr_kernel.c,
+        :meth:`~sideslip.control.base.YawMomentController.step`)."""
         entry = self._designs.get(ctl.mu_design)
         if entry is None:
             entry = self._design(ctl.mu_design, ctl.model, ctl.gains, ctl.beta_limit)

@@ -21,7 +21,8 @@
 typedef struct {
     int shaped, valid_gate, hold_limit, band, first;
     double clock_rounding, v_min, v_fade, v_max, dv, dmz, Mz_max, k_offset, beta_std_ref, ramp_rate, a_beta, a_gamma,
-           gravity, deadband, k_integral, bleed, Ts, K_beta, straight_yaw_rate, straight_steer, steer_offset_max;
+           gravity, deadband, k_integral, bleed, Ts, K_beta, straight_yaw_rate, straight_steer, steer_offset_max,
+           t_beta_lead, a_rate, beta_rate_tau;
 } LqrLaw;
 
 /* What depends on the design's friction (LqrDesign): the bicycle model's steady-state gains, the reference's
@@ -37,7 +38,7 @@ typedef struct {
 enum { IO_H, IO_DELTA, IO_VX, IO_BETA_HAT, IO_YAW_RATE, IO_BETA_VALID, IO_ENABLE, IO_BETA_STD,
        IO_CLOCK_T, IO_CLOCK_BASE, IO_CLOCK_N, IO_CLOCK_H, IO_SAMPLES_DONE, IO_SAMPLES,
        IO_V_SCHEDULE, IO_ENABLED, IO_BETA_WEIGHT, IO_STEER_OFFSET, IO_INTEGRAL, IO_MZ, IO_REF_BETA, IO_REF_GAMMA,
-       IO_PART_FF, IO_PART_FB, IO_SIZE };
+       IO_PART_FF, IO_PART_FB, IO_BETA_LOWPASS, IO_SIZE };
 
 /* Python's max(a, b) and min(a, b): the first unless the second compares greater (less). */
 static double py_max(double a, double b) { return b > a ? b : a; }
@@ -181,8 +182,17 @@ static double sample(const LqrLaw *c, const LqrDesign *d, double *io)
         n_fb += g_gamma * c->k_integral * io[IO_INTEGRAL];
     }
     if (c->K_beta != 0.0) {                                                          /* _limiter */
-        double over = fabs(beta_hat) - d->beta_limit;
-        n_fb += over > 0.0 ? w_beta * c->K_beta * copysign(over, beta_hat) : 0.0;
+        double b = beta_hat, over;
+        if (c->t_beta_lead > 0.0) {                                   /* the sideslip ahead (t_beta_lead) */
+            double lp = io[IO_BETA_LOWPASS], rate;
+            if (lp != lp)
+                lp = beta_hat;
+            rate = (beta_hat - lp) / c->beta_rate_tau;
+            io[IO_BETA_LOWPASS] = lp + c->a_rate * (beta_hat - lp);
+            b = beta_hat + c->t_beta_lead * rate;
+        }
+        over = fabs(b) - d->beta_limit;
+        n_fb += over > 0.0 ? w_beta * c->K_beta * copysign(over, b) : 0.0;
     }
     if (c->first && w_beta > 0.5) {
         if ((beta_hat < beta_ref && beta_hat < 0.0 && n_fb > 0.0)

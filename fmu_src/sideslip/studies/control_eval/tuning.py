@@ -6,14 +6,14 @@ runs on the SUV at mu 0.8, seeds 0 and 1), which is the study's test set:
 * **training** (:data:`TRAINING_SET`, seeds :data:`TRAINING_SEEDS`): what the optimiser sees - FMVSS 126 at mu 0.5
   (the SUV at 2.5A, 5A and 6.5A) and at 6A on mu 0.8 (the Sonata), Pi 2011's sine steer on mu 0.8 at 80 km/h (the
   SUV), the estimator benchmark's training brake in a turn on snow and J-turn on a wet road (Sonata), its sine steer
-  on snow and its sine steer while the friction drops from 1.0 to 0.35 and returns (SUV, 22 s), a spin-out braking in
-  a turn on snow with the rear brakes saturating (SUV), FMVSS 126 at 2A on mu 0.5 on a car that spins from there
-  uncontrolled (Sonata) and a straight drive (SUV, 12 -> 28 m/s);
+  on snow and its sine steer while the friction drops from 1.0 to 0.35 and returns (SUV, 22 s), spin-outs braking in
+  a turn on snow with the rear brakes saturating (the SUV; the Sonata from 54 km/h), FMVSS 126 at 2A on mu 0.5 on a
+  car that spins from there uncontrolled (Sonata) and a straight drive (SUV, 12 -> 28 m/s);
 * **development** (:data:`DEVELOPMENT_SET`, seeds :data:`DEVELOPMENT_SEEDS`): where the Pareto front's points are
   compared with the baseline ESC and one is chosen - FMVSS 126 at mu 0.5 at other amplitudes (the SUV at 3A, 4A
   and 6A), Pi 2011's sine steer on mu 0.5 at 60 km/h, the benchmark's development J-turn on ice (SUV) and friction
-  drop (small car), a spin-out braking in a turn on ice (small car), FMVSS 126 at 4A and 6.5A on mu 0.8 (Sonata) and
-  a straight drive (small car, 14 -> 26 m/s).
+  drop (small car), spin-outs braking in a turn on ice (small car) and on snow (the Sonata from 52 km/h, mu 0.32),
+  FMVSS 126 at 4A and 6.5A on mu 0.8 (Sonata) and a straight drive (small car, 14 -> 26 m/s).
 
 The objectives (:data:`OBJECTIVES`) are means over the maneuvers.  Five constraints (:func:`constraints`), which
 the sampler is told of (Optuna's trial constraints: the samplers and the Pareto front prefer the points within
@@ -50,16 +50,16 @@ TRAINING_SET = (("fmvss126_suv_mu05_a5.0", _SINE), ("fmvss126_suv_mu05_a6.5_righ
                 ("fmvss126_suv_mu05_a2.5", _SINE), ("fmvss126_sonata_mu08_a6.0", _SINE), ("pi2011_high", {}),
                 ("bench_train_bit_sonata_snow", {}), ("bench_train_jturn_sonata_wet", {}),
                 ("bench_train_sine_suv_snow", {"duration": 12.0}), ("bench_train_changing_mu_suv", {"duration": 22.0}),
-                ("control_tune_bit_suv_snow_spin", {}), ("fmvss126_sonata_mu05_a2.0", _SINE),
-                ("control_tune_straight_suv", {}))
-"""``(scenario, overrides)`` of the training set (116 simulated seconds per seed)."""
+                ("control_tune_bit_suv_snow_spin", {}), ("control_tune_bit_sonata_snow_spin", {}),
+                ("fmvss126_sonata_mu05_a2.0", _SINE), ("control_tune_straight_suv", {}))
+"""``(scenario, overrides)`` of the training set (126 simulated seconds per seed)."""
 TRAINING_SEEDS = (100, 101)
 DEVELOPMENT_SET = (("fmvss126_suv_mu05_a6.0", _SINE), ("fmvss126_suv_mu05_a4.0_right", _SINE),
                    ("fmvss126_suv_mu05_a3.0_right", _SINE), ("pi2011_medium", {}), ("bench_dev_jturn_suv_ice", {}),
                    ("bench_dev_changing_mu_asm", {"duration": 14.0}), ("control_dev_bit_asm_ice_spin", {}),
-                   ("fmvss126_sonata_mu08_a4.0_right", _SINE), ("fmvss126_sonata_mu08_a6.5_right", _SINE),
-                   ("control_dev_straight_asm", {}))
-"""``(scenario, overrides)`` of the development set (84 simulated seconds per seed)."""
+                   ("control_dev_bit_sonata_snow_spin", {}), ("fmvss126_sonata_mu08_a4.0_right", _SINE),
+                   ("fmvss126_sonata_mu08_a6.5_right", _SINE), ("control_dev_straight_asm", {}))
+"""``(scenario, overrides)`` of the development set (94 simulated seconds per seed)."""
 DEVELOPMENT_SEEDS = (200, 201)
 CONDITION = "sensors+mismatch"
 STRAIGHT = ("control_tune_straight_suv", "control_dev_straight_asm")
@@ -87,6 +87,7 @@ SEARCH_SPACE = {
     "beta_feedback": ("int", 0, 2),
     "k_beta": ("float", 0.0, 40.0),
     "beta_limit_scale": ("float", 0.4, 1.5),
+    "t_beta_lead": ("float", 0.0, 0.5),
     "k_integral": ("float", 0.0, 5.0),
     "valid_gate": ("int", 0, 1),
     "beta_std_ref": ("float", 0.0, 0.1),
@@ -96,7 +97,7 @@ SEARCH_SPACE = {
 weights and their friction schedule, its reference lags, the speed schedule's fade-in, the friction schedule
 (follow ``mu_hat`` down to ``mu_floor``, or not), the command shaping (rate limit, band-limited
 feed-forward) and the nonlinear parts (yaw-rate dead band, sideslip feedback beyond its reference only, sideslip
-first, sideslip limiter and its bound, yaw-rate integral: :mod:`sideslip.control.dyc`) and the trust in an
+first, sideslip limiter with its bound and its lead, yaw-rate integral: :mod:`sideslip.control.dyc`) and the trust in an
 estimator (its ``valid`` fading the sideslip feedback or not, the feedback weighted by its ``beta_hat_std``: no
 effect on the truth).  ``q_N`` stays 1: the gains depend only on the weights' ratios."""
 
