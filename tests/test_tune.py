@@ -13,8 +13,8 @@ import pytest
 from sideslip.fmi.param_file import read_param_file, write_param_file
 from sideslip.params import ParameterError
 from sideslip.studies.control_eval.study import _suggest, open_study, run_study
-from sideslip.studies.control_eval.tuning import (OBJECTIVES, SEARCH_SPACE, TRAINING_SET, DEVELOPMENT_SET, defaults,
-                                                  tuning_cases)
+from sideslip.studies.control_eval.tuning import (OBJECTIVES, SEARCH_SPACE, TRAINING_SET, DEVELOPMENT_SET, TRUST,
+                                                  defaults, search_space, tuning_cases)
 
 pytest.importorskip("optuna")
 
@@ -46,6 +46,10 @@ def test_study_runs_chooses_writes_and_goes_on_where_it_stopped(tmp_path):
     assert float(rows[0]["q_beta"]) == defaults()["q_beta"]            # the shipped point first
     fmu, values = read_param_file(out / "chosen.json")
     assert fmu == "LqrDycController" and values == s["chosen"]["parameters"]
+    # on the truth the trust in an estimator changes nothing: not searched, the file has the shipped values
+    trials = open_study(out / "journal.log").trials
+    assert not any(set(TRUST) & set(t.params) for t in trials) and set(values) == set(SEARCH_SPACE)
+    assert all(values[k] == defaults()[k] for k in TRUST) and set(search_space("SideslipFusion")) == set(SEARCH_SPACE)
     assert read_param_file(out / "chosen.ssv", "LqrDycController")[1] == pytest.approx(values)
     info = json.loads((out / "chosen.json").read_text())["info"]
     assert set(OBJECTIVES) <= set(info["development"]) and info["trial"] == s["chosen"]["trial"]
@@ -64,7 +68,7 @@ def test_points_left_running_by_a_dead_process_are_asked_again(tmp_path):
     import socket
     trial = study.ask()                       # the shipped point, asked by a process that then died
     trial.set_user_attr("owner", f"{socket.gethostname()}:{int(gone.stdout)}")
-    assert _suggest(trial) == defaults()
+    assert _suggest(trial) == {k: v for k, v in defaults().items() if k not in TRUST}
     s = run_study(out, n_trials=1, **TINY)
     assert s["released_stale"] == 1 and s["trials"] == 1 and s["shipped"]["trial"] == 1
 
@@ -224,7 +228,8 @@ def test_a_study_started_from_a_point_runs_it_on_the_development_set(tmp_path):
     start = {"q_beta": 1.0e8, "q_gamma": 1.0e6, "Mz_max": 3000.0}       # Mz_max is not searched: left out
     s = run_study(tmp_path / "study", n_trials=2, start=[start], **{**TINY, "dev_points": 1})
     study = open_study(tmp_path / "study" / "journal.log", start=[start])   # opened again: not asked twice
-    assert len(study.trials) == 2 and study.trials[1].params == {**defaults(), "q_beta": 1.0e8, "q_gamma": 1.0e6}
+    searched = {k: v for k, v in defaults().items() if k not in TRUST}     # the truth: no trust to search
+    assert len(study.trials) == 2 and study.trials[1].params == {**searched, "q_beta": 1.0e8, "q_gamma": 1.0e6}
     # the one front point the development set gets is the best tracking (the shipped); the start point runs too
     assert study.trials[1].values[0] > study.trials[0].values[0]
     assert set(s["development"]) == {"0", "1", "shipped", "esc"}

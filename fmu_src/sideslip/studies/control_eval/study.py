@@ -7,8 +7,9 @@ together, and that a stopped study goes on from.
 A study (:func:`run_study`):
 
 1. runs the baseline ESC on the training set (the bar of the responsiveness constraint), then asks the sampler
-   for a batch of points of :data:`~sideslip.studies.control_eval.tuning.SEARCH_SPACE` (the
-   shipped parameters are the study's first point) and runs each on the training set
+   for a batch of points of :data:`~sideslip.studies.control_eval.tuning.SEARCH_SPACE` (on the truth without the
+   trust in an estimator: :func:`~sideslip.studies.control_eval.tuning.search_space`; the shipped parameters are
+   the study's first point) and runs each on the training set
    (:data:`~sideslip.studies.control_eval.tuning.TRAINING_SET` x seeds) with the one job runner - a local pool or
    a Dask cluster, kept for the whole study; every run's figures are appended to ``runs.jsonl`` as it finishes
    and a point's objectives go to the storage as soon as its runs are in;
@@ -24,8 +25,9 @@ A study (:func:`run_study`):
    smallest sum of all three ratios among those keeping the FMVSS 126 runs stable and
    within the constraints, or failing that stable);
 3. writes the chosen point as a parameter file (``chosen.json``, ``chosen.ssv``:
-   :mod:`sideslip.fmi.param_file`), every point (``trials.csv``), the Pareto-front plot (``pareto.png``) and
-   ``summary.json`` (the study's throughput: simulated seconds per wall second).
+   :mod:`sideslip.fmi.param_file`; what the study did not search at the shipped values), every point
+   (``trials.csv``), the Pareto-front plot (``pareto.png``) and ``summary.json`` (the study's throughput: simulated
+   seconds per wall second).
 
 A run stopped mid-study leaves its asked points running in the storage: the next run on this machine marks those
 of processes that no longer exist failed and asks for the same points again (their finished runs come from
@@ -48,7 +50,7 @@ from ...progress import progress_bar
 from ...scenarios import get_scenario
 from ..jobs import ResultLog, parallel_map, worker_pool
 from .tuning import (DEVELOPMENT_SEEDS, DEVELOPMENT_SET, EFFORT_CAP, OBJECTIVES, SEARCH_SPACE, TRAINING_SEEDS,
-                     TRAINING_SET, constraints, defaults, evaluate_case, objectives, tuning_cases)
+                     TRAINING_SET, constraints, defaults, evaluate_case, objectives, search_space, tuning_cases)
 
 __all__ = ["run_study", "SAMPLERS", "STUDY_NAME"]
 
@@ -66,7 +68,7 @@ def _optuna():
     return optuna
 
 
-def open_study(path, name: str = STUDY_NAME, sampler: str = "tpe", seed: int = 0, start=()):
+def open_study(path, name: str = STUDY_NAME, sampler: str = "tpe", seed: int = 0, start=(), source=None):
     """The study ``name`` in the journal file ``path`` (created with the shipped point as its first point, then the
     points ``start``: parameter dicts, the searched parameters they lack at their shipped values; a point the
     study holds already is not asked again).
@@ -95,18 +97,20 @@ def open_study(path, name: str = STUDY_NAME, sampler: str = "tpe", seed: int = 0
     if not study.trials:
         study.enqueue_trial(defaults())
     for point in start:
-        study.enqueue_trial(start_point(point), skip_if_exists=True)
+        study.enqueue_trial(start_point(point, source), skip_if_exists=True)
     return study
 
 
-def start_point(values: dict) -> dict:
-    """A parameter file's values as a point of the search space (what it lacks at the shipped values)."""
-    return {**defaults(), **{k: v for k, v in values.items() if k in SEARCH_SPACE}}
+def start_point(values: dict, source: str | None = None) -> dict:
+    """A parameter file's values as a point of the search space of a study with ``source`` (what it lacks at the
+    shipped values; :func:`~sideslip.studies.control_eval.tuning.search_space`)."""
+    space = search_space(source)
+    return {k: v for k, v in {**defaults(), **values}.items() if k in space}
 
 
-def _suggest(trial) -> dict:
+def _suggest(trial, source: str | None = None) -> dict:
     out = {}
-    for name, (kind, lo, hi) in SEARCH_SPACE.items():
+    for name, (kind, lo, hi) in search_space(source).items():
         if kind == "int":
             out[name] = trial.suggest_int(name, lo, hi)
         else:
@@ -220,7 +224,7 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
     """
     optuna = _optuna()
     out = Path(out)
-    study = open_study(out / "journal.log", name, sampler, seed, start)
+    study = open_study(out / "journal.log", name, sampler, seed, start, source)
     released = _release_stale(study)
     log = ResultLog(out / "runs.jsonl")
     complete_state = optuna.trial.TrialState.COMPLETE
@@ -245,7 +249,7 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
             for _ in range(min(n_trials - have, max(workers, 1))):
                 trial = study.ask()
                 trial.set_user_attr(_OWNER, owner)
-                batch[str(trial.number)] = (trial, _suggest(trial))
+                batch[str(trial.number)] = (trial, _suggest(trial, source))
 
             def tell(key, runs):
                 trial = batch[key][0]
@@ -309,7 +313,7 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
     # Optuna's front holds the points within the constraints; if none is, the front of them all
     front = sorted(study.best_trials or _pareto_front(trials), key=lambda t: t.values[0])
     picks = {front[int(round(i))].number for i in np.linspace(0, len(front) - 1, min(dev_points, len(front)))}
-    wanted = [start_point(p) for p in start]
+    wanted = [start_point(p, source) for p in start]
     picks = sorted(picks | {t.number for t in trials if any(t.params == p for p in wanted)})
     by_number = {t.number: t for t in trials}
     points = {str(n): by_number[n].params for n in picks}
@@ -342,11 +346,12 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
                                                                 "fmvss_effort_kNms", "straight_rms_Mz_cmd")},
             "development": scores[best], "shipped_development": scores.get("shipped"), "esc_development": esc,
             "within_effort_cap": bool(ok), "development_score": rank[best]}
-    files = [write_param_file(out / "chosen.json", "LqrDycController", chosen.params, info),
-             write_param_file(out / "chosen.ssv", "LqrDycController", chosen.params)]
+    params = {**defaults(), **chosen.params}          # what the study did not search, at the shipped values
+    files = [write_param_file(out / "chosen.json", "LqrDycController", params, info),
+             write_param_file(out / "chosen.ssv", "LqrDycController", params)]
     files.append(_write_trials(trials, out / "trials.csv"))
     files.append(pareto_plot(trials, front, chosen, shipped, out / "pareto.png", esc_training))
-    return {"chosen": {"trial": chosen.number, "parameters": chosen.params, **info},
+    return {"chosen": {"trial": chosen.number, "parameters": params, **info},
             "shipped": {"trial": shipped.number if shipped else None,
                         "training": {k: shipped.user_attrs.get(k) for k in OBJECTIVES} if shipped else None,
                         "development": scores.get("shipped")},

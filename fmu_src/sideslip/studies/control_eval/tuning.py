@@ -41,8 +41,8 @@ from .cases import ControlCase, Source
 from .engines import run_control_case
 
 __all__ = ["TRAINING_SET", "TRAINING_SEEDS", "DEVELOPMENT_SET", "DEVELOPMENT_SEEDS", "CONDITION", "SEARCH_SPACE",
-           "OBJECTIVES", "STRAIGHT", "STRAIGHT_RMS_MAX", "EFFORT_CAP", "tuning_cases", "evaluate_case", "objectives",
-           "constraints", "defaults"]
+           "OBJECTIVES", "STRAIGHT", "STRAIGHT_RMS_MAX", "EFFORT_CAP", "TRUST", "search_space", "tuning_cases",
+           "evaluate_case", "objectives", "constraints", "defaults"]
 
 _SINE = {"maneuver_t_start": 1.0, "duration": 5.0}
 """A sine with dwell from 1 s, run 5 s: the 1.75 s criterion falls inside."""
@@ -99,11 +99,22 @@ weights and their friction schedule, its reference lags, the speed schedule's fa
 feed-forward) and the nonlinear parts (yaw-rate dead band, sideslip feedback beyond its reference only, sideslip
 first, sideslip limiter with its bound and its lead, yaw-rate integral: :mod:`sideslip.control.dyc`) and the trust in an
 estimator (its ``valid`` fading the sideslip feedback or not, the feedback weighted by its ``beta_hat_std``: no
-effect on the truth).  ``q_N`` stays 1: the gains depend only on the weights' ratios."""
+effect on the truth, so searched only with an estimator as the source: :func:`search_space`).  ``q_N`` stays 1:
+the gains depend only on the weights' ratios."""
+TRUST = ("valid_gate", "beta_std_ref")
+"""The parameters of the trust in an estimator: they act on an estimator's ``valid`` and ``beta_hat_std``, not on the
+truth."""
 
 OBJECTIVES = ("rms_yaw_rate_error_deg_s", "effort_kNms", "max_abs_beta_deg")
 """What the study minimises, each the mean over a set's runs: yaw-rate tracking [deg/s], effort
 ``int |Mz_act| dt`` [kN m s], max ``|beta|`` [deg]."""
+
+
+def search_space(source: str | None = None) -> dict:
+    """What a study with ``source`` (an estimator; None: the truth) searches: :data:`SEARCH_SPACE`, on the truth
+    without :data:`TRUST`.  A parameter that changes nothing would be drawn at random and written into the chosen
+    file; unsearched, it stays at its shipped value there."""
+    return {k: v for k, v in SEARCH_SPACE.items() if source or k not in TRUST}
 
 
 def defaults() -> dict:
