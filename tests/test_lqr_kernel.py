@@ -63,7 +63,7 @@ LOOPS = [
     ("park2018_case3", "sensors", "LQR / truth", (("Ts_control", 0.01), ("yaw_rate_source", 0), ("valid_gate", 0)),
      lambda a: np.ptp(a["controller.Mz_cmd"]) > 1.0),
     ("control_tune_bit_sonata_snow_spin", "sensors+mismatch", "LQR / SideslipFusion", TUNED,    # limiter ahead
-     lambda a: np.max(np.abs(a["controller.Mz_fb"])) > 1000.0),
+     lambda a: dict(TUNED)["t_beta_lead"] > 0.0 and np.max(np.abs(a["controller.Mz_fb"])) > 1000.0),
 ]
 
 
