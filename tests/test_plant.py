@@ -221,6 +221,48 @@ def test_in_wheel_motors_realise_the_yaw_moment_with_lag_and_limit():
     assert plant.output_dict()["yaw_rate"] > 0.05                  # positive moment turns left
 
 
+def _slips(plant: VehiclePlant) -> np.ndarray:
+    """Longitudinal slip of each wheel on a straight run (its ground speed is the car's)."""
+    out = plant.output_dict()
+    return np.array([(out[f"omega_{w}"] * plant.vehicle.R_w - out["vx"]) / out["vx"] for w in ("fl", "fr", "rl", "rr")])
+
+
+@pytest.mark.parametrize("slip", [0.0, 0.1])
+def test_slip_control_keeps_a_braked_wheel_turning_and_the_car_braking(slip):
+    # full brake on snow from 20 m/s: without slip control every wheel locks; with it (ABS) the slip stays within
+    # twice slip_max and the car still brakes with most of what the road gives
+    plant = VehiclePlant(PlantConfig(vehicle="park2018_sonata", vx0=20.0, wheel_slip_max=slip))
+    worst = 0.0
+    for _ in range(1500):
+        plant.step(1e-3, T_brake=8000.0, mu=0.3)
+        worst = min(worst, _slips(plant).min())
+    decel = (20.0 - plant.output_dict()["vx"]) / 1.5
+    if slip:
+        assert -2.0 * slip <= worst < -0.5 * slip
+        assert 0.7 * 0.3 * GRAVITY < decel < 1.05 * 0.3 * GRAVITY          # with rolling resistance and drag
+    else:
+        assert worst < -0.95
+
+
+@pytest.mark.parametrize("slip", [0.0, 0.1])
+def test_slip_control_keeps_the_motors_from_spinning_their_wheels(slip):
+    # the in-wheel motors' whole torque difference on snow spins one wheel up and drives the other backwards
+    # without slip control; with it both stay within twice slip_max and the moment realised (Mz_act) is what the
+    # road takes, less than the motors' command
+    plant = VehiclePlant(PlantConfig(vehicle="park2018_sonata", vx0=15.0, wheel_slip_max=slip))
+    v = plant.vehicle
+    limit = v.motor_T_max * v.t_f / v.R_w
+    for _ in range(500):
+        plant.step(1e-3, Mz_dyc=limit, mu=0.3)
+    slips = _slips(plant)
+    if slip:
+        assert np.abs(slips).max() <= 2.0 * slip
+        assert 0.1 * limit < plant.output_dict()["Mz_act"] < 0.9 * limit
+    else:
+        assert slips.max() > 0.5 and slips.min() < -1.0
+        assert plant.output_dict()["Mz_act"] == pytest.approx(limit, rel=1e-6)
+
+
 def test_reversing_and_extreme_inputs_stay_finite():
     plant = VehiclePlant(PlantConfig(vehicle="kim2016_asm", vx0=0.0))
     for k in range(5000):

@@ -3,7 +3,8 @@
 The C kernel repeats the reference's arithmetic operation for operation: on one platform both give the same
 doubles (checked exactly here on Linux x86-64, where the paper tables are made, and to 1e-12 everywhere).  The
 drives cover both tire models, the velocity effect of friction, the stiff low-speed wheel modes (several RK4
-sub-steps up to their cap), braking to standstill, the in-wheel motors' lag and saturation, bank and wind.
+sub-steps up to their cap), braking to standstill, the in-wheel motors' lag and saturation, bank and wind, and the
+wheel-slip control (ABS and the motors' slip limit) on both tire models and both motor axles.
 """
 from __future__ import annotations
 
@@ -42,8 +43,9 @@ def _drive(plant: VehiclePlant, steps: int) -> tuple[np.ndarray, list[int]]:
     return np.array(rows), subs
 
 
-CASES = [("park2018_sonata", 0, ""), ("park2018_sonata", 1, ""), ("pi2011_suv", 0, "eps_v=0.02"),
-         ("pi2011_suv", 1, "eps_v=0.02, motor_axle=front"), ("kim2016_asm", 0, "motor_tau=0")]
+CASES = [("park2018_sonata", 0, "", 0.0), ("park2018_sonata", 1, "", 0.0), ("pi2011_suv", 0, "eps_v=0.02", 0.0),
+         ("pi2011_suv", 1, "eps_v=0.02, motor_axle=front", 0.0), ("kim2016_asm", 0, "motor_tau=0", 0.0),
+         ("park2018_sonata", 0, "", 0.1), ("pi2011_suv", 1, "eps_v=0.02, motor_axle=rear", 0.15)]
 
 
 def test_the_compiled_kernel_is_built_with_the_library():
@@ -51,9 +53,10 @@ def test_the_compiled_kernel_is_built_with_the_library():
     assert VehiclePlant().compiled
 
 
-@pytest.mark.parametrize("vehicle,tire_model,overrides", CASES)
-def test_the_compiled_step_gives_the_reference_doubles(vehicle, tire_model, overrides):
-    config = dict(vehicle=vehicle, vehicle_overrides=overrides, vx0=22.0, tire_model=tire_model, max_substeps=6)
+@pytest.mark.parametrize("vehicle,tire_model,overrides,slip", CASES)
+def test_the_compiled_step_gives_the_reference_doubles(vehicle, tire_model, overrides, slip):
+    config = dict(vehicle=vehicle, vehicle_overrides=overrides, vx0=22.0, tire_model=tire_model, max_substeps=6,
+                  wheel_slip_max=slip)
     reference = VehiclePlant(PlantConfig(**config, compiled=0))
     compiled = VehiclePlant(PlantConfig(**config, compiled=1))
     assert not reference.compiled and compiled.compiled

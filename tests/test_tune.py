@@ -160,6 +160,12 @@ def test_control_case_sets_default_quick_plants_and_a_parameter_file(tmp_path):
     assert {c.plant for c in two} == {"commonroad1", "commonroad2"} and len(two) == 2 * (4 + 1) * 5
     with pytest.raises(ValueError, match="--plant 'commonroad4': plants are own, commonroad1, commonroad2"):
         _control_args("--plant", "commonroad4")
+    # the project's plant's wheel-slip control: the evaluation's by default, none on asking
+    from sideslip.studies.control_eval import WHEEL_SLIP_MAX
+    assert WHEEL_SLIP_MAX > 0 and {c.wheel_slip_max for c in quick} == {WHEEL_SLIP_MAX}
+    assert {c.wheel_slip_max for c in _control_args("--quick", "--wheel-slip-max", "0")} == {0.0}
+    with pytest.raises(ValueError, match=r"--wheel-slip-max 0.7: a slip in \[0, 0.5\]"):
+        _control_args("--wheel-slip-max", "0.7")
     write_param_file(tmp_path / "p.json", "LqrDycController", {"q_gamma": 2e9, "friction_source": 0})
     tuned = _control_args("--quick", "--params", str(tmp_path / "p.json"))
     for c in tuned:                           # the drivable LQR rows; the published one stays the paper's

@@ -61,6 +61,9 @@ def _register_control(sub) -> None:
                      "Ford Escort, BMW 320i, VW Vanagon, each known by its identified vehicle file: FMVSS 126 and "
                      "the brake in a turn on snow, five rows; quick: 5A and 6.5A); repeatable, default own and "
                      "commonroad3")
+    ctl.add_argument("--wheel-slip-max", type=float, metavar="SLIP", help="the project's plant's wheel-slip control "
+                     "(ABS, the motors' slip limit): torque cut from this slip to twice it; 0: none, the wheels lock "
+                     "and spin freely (default: the evaluation's, WHEEL_SLIP_MAX)")
     ctl.add_argument("--param", action="append", metavar="NAME=VALUE",
                      help="controller parameter, for every row whose controller has it")
     params_file_arg(ctl)
@@ -97,10 +100,13 @@ def control_case_set(args) -> list:
     if unknown:
         raise ValueError(f"--plant {unknown[0]!r}: plants are {', '.join(PLANTS)}")
     off_plants = tuple(p for p in plants if p != OWN)
+    if args.wheel_slip_max is not None and not 0.0 <= args.wheel_slip_max <= 0.5:
+        raise ValueError(f"--wheel-slip-max {args.wheel_slip_max:g}: a slip in [0, 0.5]")
     cases = ce.control_cases(sources, args.condition or ce.CONDITIONS, args.seeds or (1 if args.quick else 2),
                              factors, scenarios=args.scenario or ce.SCENARIOS, off_plant=bool(off_plants),
                              off_plant_factors=ce.QUICK_OFF_PLANT_FACTORS if args.quick and not args.factors else None,
-                             off_plants=off_plants)
+                             off_plants=off_plants, wheel_slip_max=ce.WHEEL_SLIP_MAX if args.wheel_slip_max is None
+                             else args.wheel_slip_max)
     if OWN not in plants:
         cases = [c for c in cases if c.plant != OWN]
     if args.params:

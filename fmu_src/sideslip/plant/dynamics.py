@@ -56,6 +56,14 @@ car comes to rest without the sign of ``w`` chattering.
 The in-wheel motors' torque difference ``dT`` (``+-dT`` on the two wheels of their axle) is
 an argument: it follows its command through a first-order lag that the integrator solves
 exactly.
+
+Wheel-slip control (``slip_max > 0``; off by default, the papers' plant): the brakes' ABS and the in-wheel motors'
+inverters take torque off a wheel whose longitudinal slip ``lambda = (R w - v_x) / max(|v_x|, SLIP_CONTROL_SPEED)``
+(``v_x`` the wheel's ground speed along its heading) passes ``slip_max`` in the torque's direction, all of it at
+twice that (:func:`slip_share`): an idealised, continuous ABS (a real one cycles the pressure around the same slip;
+this one acts in forward travel) and the slip limit of a motor drive (in either direction).  Without it the driver's brake locks the wheels on a slippery road and a motor
+spins its wheel up or backwards, which no car with stability control allows: a locked or spinning wheel has lost
+its side force, and what a yaw-moment controller achieves is then decided by which wheel locks when.
 """
 from __future__ import annotations
 
@@ -70,10 +78,35 @@ from ..constants import GRAVITY
 from ..vehicles import VehicleParams
 from .tires import dugoff, friction, magic_formula, practical_slip, theoretical_slip
 
-__all__ = ["St", "N_STATES", "PlantInputs", "HeldInputs", "Constants", "Aux", "PlantModel", "DUGOFF", "MAGIC_FORMULA"]
+__all__ = ["St", "N_STATES", "PlantInputs", "HeldInputs", "Constants", "Aux", "PlantModel", "DUGOFF", "MAGIC_FORMULA",
+           "SLIP_CONTROL_SPEED", "slip_share"]
 
 DUGOFF, MAGIC_FORMULA = 0, 1
 """Values of the plant's ``tire_model`` parameter."""
+SLIP_CONTROL_SPEED = 3.0
+"""[m/s] the slip control's slip is taken on at least this ground speed: below it the same slip speed ``R w - v_x``
+is a smaller slip, so that the control fades out as the car stops (a real ABS switches off at walking speed) and
+the wheel mode it adds stays within the sub-step rule's bound."""
+
+
+def slip_share(v_x: float, omega: float, radius: float, slip_max: float, driving: bool) -> float:
+    """Share [0, 1] of a torque that a wheel's slip control lets through (module docstring).
+
+    Parameters
+    ----------
+    v_x : float
+        The wheel's ground speed along its heading [m/s].
+    omega, radius : float
+        Its spin [rad/s] and rolling radius [m].
+    slip_max : float
+        Slip beyond which the torque is cut, all of it at twice this (> 0).
+    driving : bool
+        The torque drives the wheel (else it brakes it).
+    """
+    den = v_x if v_x > SLIP_CONTROL_SPEED else (-v_x if -v_x > SLIP_CONTROL_SPEED else SLIP_CONTROL_SPEED)
+    lam = (radius * omega - v_x) / den
+    x = (2.0 * slip_max - lam) / slip_max if driving else (lam + 2.0 * slip_max) / slip_max
+    return 0.0 if x <= 0.0 else (1.0 if x >= 1.0 else x)
 
 
 class St(IntEnum):
@@ -172,6 +205,7 @@ class Constants(NamedTuple):
     eps_v: float             #: Dugoff velocity effect [s/m]
     motor_front: float       #: 1 when the in-wheel motors sit on the front axle, else 0
     motor_rear: float        #: 1 when they sit on the rear axle, else 0
+    slip_max: float          #: wheel-slip control's slip (0: none)
 
 
 class Aux(NamedTuple):
@@ -189,6 +223,7 @@ class Aux(NamedTuple):
     alpha_fr: float
     alpha_rl: float
     alpha_rr: float
+    motor_share: float       #: share of the motors' torque difference the slip control lets through [-]
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,6 +238,8 @@ class PlantModel:
         (:class:`~sideslip.plant.vehicle.PlantConfig`).
     tire_model : int
         :data:`DUGOFF` or :data:`MAGIC_FORMULA` (:mod:`sideslip.plant.tires`).
+    slip_max : float
+        Wheel-slip control's slip [-] (module docstring; 0: none).
     """
 
     vehicle: VehicleParams
@@ -210,6 +247,7 @@ class PlantModel:
     omega_eps: float = 0.5
     tau_load: float = 0.01
     tire_model: int = 0
+    slip_max: float = 0.0
     k: Constants = field(init=False, repr=False)
     """Constants of :meth:`derivative`."""
     splits: tuple = field(init=False, repr=False)
@@ -237,7 +275,7 @@ class PlantModel:
             self.v_min, self.omega_eps, *minv[0], *minv[1], *minv[2],
             v.C_phi_f + v.C_phi_r, 1.0 / self.tau_load,
             v.f_rr * v.R_w, 0.5 * v.rho_air * v.CdA, v.eps_v,
-            1.0 if front else 0.0, 0.0 if front else 1.0)
+            1.0 if front else 0.0, 0.0 if front else 1.0, self.slip_max)
         object.__setattr__(self, "k", k)
         object.__setattr__(self, "splits", (0.5 * v.drive_split_front, 0.5 * (1.0 - v.drive_split_front),
                                             0.5 * v.brake_split_front, 0.5 * (1.0 - v.brake_split_front)))
@@ -294,7 +332,7 @@ class PlantModel:
         """
         (m, mshs, g, lf, lr, tf2, tr2, R, inv_iw, cs, kx, kf, kr, cf, cr, lyf, lyr,
          vmin, weps, a00, a01, a02, a10, a11, a12, a20, a21, a22, cphi, inv_tau,
-         frr_r, drag, eps_v, mf, mr) = self.k
+         frr_r, drag, eps_v, mf, mr, slip_max) = self.k
         (cd, sd, tq_f, tq_r, tb_f, tb_r, mu, caf, car, fz0f, fz0r, mgsb, roll_k, roll_g, gsb, cb,
          fw, mw) = held
         vx, vy, r, phi, p, w1, w2, w3, w4, _, _, psi, axf, ayf = x
@@ -374,20 +412,35 @@ class PlantModel:
         s2 = w2 / ((w2 if w2 > 0.0 else -w2) + weps)
         s3 = w3 / ((w3 if w3 > 0.0 else -w3) + weps)
         s4 = w4 / ((w4 if w4 > 0.0 else -w4) + weps)
+        # motor torque (+-dT on its axle's right and left wheel) and brake torque per wheel
+        m1, m2, m3, m4 = mf * dT, mf * dT, mr * dT, mr * dT
+        b1, b2, b3, b4 = tb_f, tb_f, tb_r, tb_r
+        share = 1.0
+        if slip_max > 0.0:      # wheel-slip control (module docstring): ABS and the motors' slip limit
+            b1 *= slip_share(vxt1, w1, R, slip_max, False)
+            b2 *= slip_share(vxt2, w2, R, slip_max, False)
+            b3 *= slip_share(vxt3, w3, R, slip_max, False)
+            b4 *= slip_share(vxt4, w4, R, slip_max, False)
+            if dT != 0.0:
+                m1 *= slip_share(vxt1, w1, R, slip_max, dT < 0.0)
+                m2 *= slip_share(vxt2, w2, R, slip_max, dT > 0.0)
+                m3 *= slip_share(vxt3, w3, R, slip_max, dT < 0.0)
+                m4 *= slip_share(vxt4, w4, R, slip_max, dT > 0.0)
+                share = 0.5 * ((m1 + m2) / (mf * dT) if mf else (m3 + m4) / (mr * dT))
         cpsi, spsi = cos(psi), sin(psi)
         if aux is not None:
             aux.extend((ax_spec, ay_spec, by1 + by2, fy3 + fy4, fz1, fz2, fz3, fz4,
                         atan2(vyt1, abs(vxt1)), atan2(vyt2, abs(vxt2)),
-                        atan2(vyr, abs(vxt3)), atan2(vyr, abs(vxt4))))
+                        atan2(vyr, abs(vxt3)), atan2(vyr, abs(vxt4)), share))
         return (ax_spec + r * vy,
                 a_lat - r * vx,
                 dr,
                 p,
                 dp,
-                (tq_f - mf * dT - R * fx1 - (tb_f + frr_r * fz1) * s1) * inv_iw,
-                (tq_f + mf * dT - R * fx2 - (tb_f + frr_r * fz2) * s2) * inv_iw,
-                (tq_r - mr * dT - R * fx3 - (tb_r + frr_r * fz3) * s3) * inv_iw,
-                (tq_r + mr * dT - R * fx4 - (tb_r + frr_r * fz4) * s4) * inv_iw,
+                (tq_f - m1 - R * fx1 - (b1 + frr_r * fz1) * s1) * inv_iw,
+                (tq_f + m2 - R * fx2 - (b2 + frr_r * fz2) * s2) * inv_iw,
+                (tq_r - m3 - R * fx3 - (b3 + frr_r * fz3) * s3) * inv_iw,
+                (tq_r + m4 - R * fx4 - (b4 + frr_r * fz4) * s4) * inv_iw,
                 vx * cpsi - vy * spsi,
                 vx * spsi + vy * cpsi,
                 r,

@@ -35,7 +35,7 @@ LIBRARY_NAME = "sideslip_plant_kernel"
 """File name (without extension) of the binary an FMU carries."""
 PLATFORM = {"linux": "linux64", "win32": "win64"}.get(sys.platform)
 """This machine's FMI platform folder, where an FMU's kernel is."""
-KERNEL_VERSION = 4
+KERNEL_VERSION = 5
 """Interface version the binary must report (``sideslip_plant_kernel_version``)."""
 N_STATE, N_INPUTS, N_OUTPUTS = 15, 8, 24
 """The kernel's state (the plant's 14 states and the motors' torque difference), inputs and outputs."""

@@ -7,7 +7,8 @@ motors, and produces the truth outputs of :data:`sideslip.signals.PLANT_OUTPUTS`
 
 Integration: classical RK4 on the comm step split into ``n`` equal sub-steps chosen per
 step from the stiffest mode, the wheel spin ``R^2 C_sigma / (I_w max(|R w|, v_min))``
-(plus brake regularisation), so that ``lambda h_sub <= z_max``.  At road speeds one
+(plus brake regularisation and, with wheel-slip control, its gain on the wheel's torque), so that
+``lambda h_sub <= z_max``.  At road speeds one
 RK4 step per 1 ms suffices; at walking speed it takes several.  The in-wheel motor
 torque follows its first-order lag analytically (exact within a step).
 
@@ -27,7 +28,7 @@ from ..signals import PLANT_INPUTS, PLANT_OUTPUTS
 from ..units import wrap_angle
 from ..vehicles import VehicleConfig, VehicleParams
 from . import kernel
-from .dynamics import MAGIC_FORMULA, N_STATES, PlantInputs, PlantModel, St
+from .dynamics import MAGIC_FORMULA, N_STATES, SLIP_CONTROL_SPEED, PlantInputs, PlantModel, St
 from .tires import MagicFormula
 
 __all__ = ["St", "PlantConfig", "VehiclePlant"]
@@ -55,6 +56,9 @@ class PlantConfig(VehicleConfig):
                               ge=1, le=10000)
     tire_model: int = param(0, "Dimensionless", "Tire model: 0 Dugoff (the plant of Pi 2011, the papers' tables), "
                             "1 Pacejka Magic Formula 5.2 with combined slip", choices=(0, 1))
+    wheel_slip_max: float = param(0.0, "Dimensionless", "Wheel-slip control (ABS on the brakes, slip limit of the "
+                                  "in-wheel motors): a wheel's brake or motor torque is cut from this longitudinal "
+                                  "slip to twice it (0: none, the wheels lock and spin freely)", ge=0, le=0.5)
     compiled: int = param(1, "Dimensionless", "Step computation: 1 compiled C where the FMU carries it for this "
                           "platform (the same doubles, faster), 0 the pure-Python reference",
                           choices=(0, 1))
@@ -85,13 +89,15 @@ class VehiclePlant(kernel.CompiledStep, Model):
     def __init__(self, config: PlantConfig | None = None, vehicle: VehicleParams | None = None):
         self.config = cfg = config or PlantConfig()
         self.vehicle = v = vehicle or cfg.vehicle_params()
-        self.dynamics = PlantModel(v, cfg.v_min, cfg.omega_eps, cfg.tau_load, cfg.tire_model)
+        self.dynamics = PlantModel(v, cfg.v_min, cfg.omega_eps, cfg.tau_load, cfg.tire_model, cfg.wheel_slip_max)
         self._motor_arm = (v.t_f if v.motor_axle == "front" else v.t_r) / v.R_w   # Mz = arm * dT
         self._mu_cache = (None, (v.C_alpha_f, v.C_alpha_r))
         self._decay = (None, 0.0)          # (half sub-step, motor-lag decay over it)
-        # stiffness of the wheel-spin mode: R^2 C_sigma / (I_w max(|R w|, v_min)) + brake term
+        # stiffness of the wheel-spin mode: R^2 C_sigma / (I_w max(|R w|, v_min)) + brake term + the slip
+        # control's gain on the wheel's brake and motor torque, R / (I_w slip_max) over the slip's speed (_substeps)
+        slip = cfg.wheel_slip_max
         self._stiff = (v.R_w, cfg.v_min, v.R_w * v.R_w * v.C_sigma / v.I_w, 1.0 / (v.I_w * cfg.omega_eps),
-                       1.0 / cfg.z_max, cfg.max_substeps)
+                       v.R_w / (v.I_w * slip) if slip > 0.0 else 0.0, 1.0 / cfg.z_max, cfg.max_substeps)
         self._compile()
         self.reset()
 
@@ -132,12 +138,16 @@ class VehiclePlant(kernel.CompiledStep, Model):
             self._mu_cache = (mu, self.vehicle.cornering_stiffness(mu))
         return self.dynamics.held(u, self._mu_cache[1])
 
-    def _substeps(self, h: float, tb: float) -> int:
-        """Number of RK4 sub-steps so that (stiffest wheel mode) x h_sub <= z_max."""
-        radius, v_min, c_wheel, c_brake, inv_z, n_max = self._stiff
+    def _substeps(self, h: float, tb: float, t_motor: float) -> int:
+        """Number of RK4 sub-steps so that (stiffest wheel mode) x h_sub <= z_max, with the wheel's brake torque
+        ``tb`` and motor torque ``t_motor`` [N m] under the slip control (a wheel's ground speed taken as no less
+        than half the car's)."""
+        radius, v_min, c_wheel, c_brake, c_slip, inv_z, n_max = self._stiff
         w1, w2, w3, w4 = self.x[_WHEEL_SPEEDS]
         den = radius * min(abs(w1), abs(w2), abs(w3), abs(w4))
-        stiff = c_wheel / (den if den > v_min else v_min) + c_brake * tb
+        v_slip = 0.5 * abs(self.x[0])
+        stiff = (c_wheel / (den if den > v_min else v_min) + c_brake * tb
+                 + c_slip * (tb + t_motor) / (v_slip if v_slip > SLIP_CONTROL_SPEED else SLIP_CONTROL_SPEED))
         n = int(math.ceil(h * stiff * inv_z - 1e-12))
         return n if 1 <= n <= n_max else (1 if n < 1 else n_max)
 
@@ -173,7 +183,9 @@ class VehiclePlant(kernel.CompiledStep, Model):
         lim = v.motor_T_max
         dT_cmd = lim if dT_cmd > lim else (-lim if dT_cmd < -lim else dT_cmd)
 
-        n = self._substeps(h, held.brake_front if held.brake_front > held.brake_rear else held.brake_rear)
+        dT = self.dT_motor
+        n = self._substeps(h, held.brake_front if held.brake_front > held.brake_rear else held.brake_rear,
+                           max(abs(dT), abs(dT_cmd)))
         self.n_substeps = n
         hs = h / n
         half = 0.5 * hs
@@ -183,7 +195,6 @@ class VehiclePlant(kernel.CompiledStep, Model):
             self._decay = (half, math.exp(-half / tau) if tau > 0.0 else 0.0)
         decay_half = self._decay[1]
         x = self.x
-        dT = self.dT_motor
         deriv = self.dynamics.derivative
         for _ in range(n):
             dT_mid = dT_cmd + (dT - dT_cmd) * decay_half
@@ -208,7 +219,7 @@ class VehiclePlant(kernel.CompiledStep, Model):
         """Plant outputs at state ``x`` for the held inputs ``held`` (see :meth:`_held`)."""
         aux: list = []
         self.dynamics.derivative(x, held, self.dT_motor, aux)
-        ax_spec, ay_road, fy_f, fy_r, fz1, fz2, fz3, fz4, a1, a2, a3, a4 = aux
+        ax_spec, ay_road, fy_f, fy_r, fz1, fz2, fz3, fz4, a1, a2, a3, a4, share = aux
         vx, vy, r, phi, p, w1, w2, w3, w4, X, Y, psi, _, _ = x
         gsb, cb = held.g_sin_bank, held.cos_bank
         bank = atan2(gsb, GRAVITY * cb)
@@ -216,4 +227,4 @@ class VehiclePlant(kernel.CompiledStep, Model):
         ay_body = cos(phi) * ay_road + sin(phi) * GRAVITY * cb
         return (vx, vy, r, atan2(vy, vx), psi, bank + phi, p, ax_spec, ay_body,
                 X, Y, w1, w2, w3, w4, fy_f, fy_r, fz1, fz2, fz3, fz4,
-                0.5 * (a1 + a2), 0.5 * (a3 + a4), self._motor_arm * self.dT_motor)
+                0.5 * (a1 + a2), 0.5 * (a3 + a4), self._motor_arm * self.dT_motor * share)

@@ -20,8 +20,9 @@
 
 #define N_STATES 14
 #define N_OUTPUTS 24
-#define KERNEL_VERSION 4   /* 2: the binary holds the driver's step as well (driver_kernel.c); 3: and the LQR's
-                              (sideslip/control/native/lqr_kernel.c); 4: the plant's values in one buffer */
+#define KERNEL_VERSION 5   /* 2: the binary holds the driver's step as well (driver_kernel.c); 3: and the LQR's
+                              (sideslip/control/native/lqr_kernel.c); 4: the plant's values in one buffer;
+                              5: the plant's wheel-slip control */
 
 /* State indices (sideslip.plant.dynamics.St). */
 enum { VX, VY, R, PHI, P, W_FL, W_FR, W_RL, W_RR, X, Y, PSI, AXF, AYF };
@@ -36,11 +37,12 @@ typedef struct {
  * of a front and a rear tire, the sub-step rule and the motors of VehiclePlant. */
 typedef struct {
     double m, mshs, g, lf, lr, tf2, tr2, R, inv_iw, c_sigma, kx, kf, kr, cf, cr, lyf, lyr, v_min, omega_eps,
-        a00, a01, a02, a10, a11, a12, a20, a21, a22, c_phi, inv_tau, frr_r, drag, eps_v, motor_front, motor_rear;
+        a00, a01, a02, a10, a11, a12, a20, a21, a22, c_phi, inv_tau, frr_r, drag, eps_v, motor_front, motor_rear,
+        slip_max;
     double drive_front, drive_rear, brake_front, brake_rear;          /* splits, per wheel */
     double fz0_front, fz0_rear, mg, mshs_g, k_phi;                     /* static */
     MagicFormula mf_front, mf_rear;
-    double radius, stiff_v_min, c_wheel, c_brake, inv_z, max_substeps; /* sub-step rule */
+    double radius, stiff_v_min, c_wheel, c_brake, c_slip, inv_z, max_substeps; /* sub-step rule */
     double motor_arm, motor_T_max, motor_tau;
     double tire_model;                                                 /* 0 Dugoff, 1 Magic Formula */
     double gravity;
@@ -122,8 +124,19 @@ static void magic_formula(double fz, double mu, double c_sigma, double c_alpha, 
 /* ------------------------------------------------------------------------------------------ dynamics */
 static double positive(double v) { return v > 0.0 ? v : 0.0; }
 
+#define SLIP_CONTROL_SPEED 3.0   /* dynamics.SLIP_CONTROL_SPEED */
 
-/* State derivative (dynamics.PlantModel.derivative): eqs 1-6 re-derived, 7-14; aux (12 values, the
+/* dynamics.slip_share: share of a torque a wheel's slip control lets through */
+static double slip_share(double v_x, double omega, double radius, double slip_max, int driving)
+{
+    double den = v_x > SLIP_CONTROL_SPEED ? v_x : (-v_x > SLIP_CONTROL_SPEED ? -v_x : SLIP_CONTROL_SPEED);
+    double lam = (radius * omega - v_x) / den;
+    double x = driving ? (2.0 * slip_max - lam) / slip_max : (lam + 2.0 * slip_max) / slip_max;
+    return x <= 0.0 ? 0.0 : (x >= 1.0 ? 1.0 : x);
+}
+
+
+/* State derivative (dynamics.PlantModel.derivative): eqs 1-6 re-derived, 7-14; aux (13 values, the
  * order of dynamics.Aux) when not NULL. */
 static void derivative(const Constants *k, const Held *u, const double *s, double dT, double *dx, double *aux)
 {
@@ -132,7 +145,7 @@ static void derivative(const Constants *k, const Held *u, const double *s, doubl
     double dfx, dff, dfr, fz1, fz2, fz3, fz4, vyf, vyr, vxl, vxr, vxt1, vyt1, vxt2, vyt2, vxt3, vxt4;
     double mu1, mu2, mu3, mu4, fx1, fy1, fx2, fy2, fx3, fy3, fx4, fy4;
     double bx1, by1, bx2, by2, fx_sum, fy_tires, fy_sum, mz_sum, roll_rhs, a_lat, dr, dp, ax_spec, ay_spec;
-    double s1, s2, s3, s4, cpsi, spsi;
+    double s1, s2, s3, s4, cpsi, spsi, m1, m2, m3, m4, b1, b2, b3, b4, share;
 
     /* quasi-static loads (eqs 11-14 re-derived) */
     dfx = k->kx * axf;
@@ -209,6 +222,30 @@ static void derivative(const Constants *k, const Held *u, const double *s, doubl
     s2 = w2 / ((w2 > 0.0 ? w2 : -w2) + k->omega_eps);
     s3 = w3 / ((w3 > 0.0 ? w3 : -w3) + k->omega_eps);
     s4 = w4 / ((w4 > 0.0 ? w4 : -w4) + k->omega_eps);
+    /* motor torque (+-dT on its axle's right and left wheel) and brake torque per wheel */
+    m1 = k->motor_front * dT;
+    m2 = k->motor_front * dT;
+    m3 = k->motor_rear * dT;
+    m4 = k->motor_rear * dT;
+    b1 = u->tb_f;
+    b2 = u->tb_f;
+    b3 = u->tb_r;
+    b4 = u->tb_r;
+    share = 1.0;
+    if (k->slip_max > 0.0) {   /* wheel-slip control: ABS and the motors' slip limit */
+        b1 *= slip_share(vxt1, w1, k->R, k->slip_max, 0);
+        b2 *= slip_share(vxt2, w2, k->R, k->slip_max, 0);
+        b3 *= slip_share(vxt3, w3, k->R, k->slip_max, 0);
+        b4 *= slip_share(vxt4, w4, k->R, k->slip_max, 0);
+        if (dT != 0.0) {
+            m1 *= slip_share(vxt1, w1, k->R, k->slip_max, dT < 0.0);
+            m2 *= slip_share(vxt2, w2, k->R, k->slip_max, dT > 0.0);
+            m3 *= slip_share(vxt3, w3, k->R, k->slip_max, dT < 0.0);
+            m4 *= slip_share(vxt4, w4, k->R, k->slip_max, dT > 0.0);
+            share = 0.5 * (k->motor_front != 0.0 ? (m1 + m2) / (k->motor_front * dT)
+                                                 : (m3 + m4) / (k->motor_rear * dT));
+        }
+    }
     cpsi = cos(psi);
     spsi = sin(psi);
     if (aux) {
@@ -224,16 +261,17 @@ static void derivative(const Constants *k, const Held *u, const double *s, doubl
         aux[9] = atan2(vyt2, fabs(vxt2));
         aux[10] = atan2(vyr, fabs(vxt3));
         aux[11] = atan2(vyr, fabs(vxt4));
+        aux[12] = share;
     }
     dx[VX] = ax_spec + r * vy;
     dx[VY] = a_lat - r * vx;
     dx[R] = dr;
     dx[PHI] = p;
     dx[P] = dp;
-    dx[W_FL] = (u->tq_f - k->motor_front * dT - k->R * fx1 - (u->tb_f + k->frr_r * fz1) * s1) * k->inv_iw;
-    dx[W_FR] = (u->tq_f + k->motor_front * dT - k->R * fx2 - (u->tb_f + k->frr_r * fz2) * s2) * k->inv_iw;
-    dx[W_RL] = (u->tq_r - k->motor_rear * dT - k->R * fx3 - (u->tb_r + k->frr_r * fz3) * s3) * k->inv_iw;
-    dx[W_RR] = (u->tq_r + k->motor_rear * dT - k->R * fx4 - (u->tb_r + k->frr_r * fz4) * s4) * k->inv_iw;
+    dx[W_FL] = (u->tq_f - m1 - k->R * fx1 - (b1 + k->frr_r * fz1) * s1) * k->inv_iw;
+    dx[W_FR] = (u->tq_f + m2 - k->R * fx2 - (b2 + k->frr_r * fz2) * s2) * k->inv_iw;
+    dx[W_RL] = (u->tq_r - m3 - k->R * fx3 - (b3 + k->frr_r * fz3) * s3) * k->inv_iw;
+    dx[W_RR] = (u->tq_r + m4 - k->R * fx4 - (b4 + k->frr_r * fz4) * s4) * k->inv_iw;
     dx[X] = vx * cpsi - vy * spsi;
     dx[Y] = vx * spsi + vy * cpsi;
     dx[PSI] = r;
@@ -287,16 +325,17 @@ static double wrap_angle(double angle)
 }
 
 /* vehicle.VehiclePlant._substeps */
-static int substeps(const Constants *k, const double *s, double h, double tb)
+static int substeps(const Constants *k, const double *s, double h, double tb, double t_motor)
 {
-    double den, stiff, n;
+    double den, stiff, n, v_slip = 0.5 * fabs(s[VX]);
     double a = fabs(s[W_FL]), b = fabs(s[W_FR]), c = fabs(s[W_RL]), d = fabs(s[W_RR]);
     double least = a;
     if (b < least) least = b;
     if (c < least) least = c;
     if (d < least) least = d;
     den = k->radius * least;
-    stiff = k->c_wheel / (den > k->stiff_v_min ? den : k->stiff_v_min) + k->c_brake * tb;
+    stiff = k->c_wheel / (den > k->stiff_v_min ? den : k->stiff_v_min) + k->c_brake * tb
+        + k->c_slip * (tb + t_motor) / (v_slip > SLIP_CONTROL_SPEED ? v_slip : SLIP_CONTROL_SPEED);
     n = ceil(h * stiff * k->inv_z - 1e-12);
     if (!(n >= 1.0)) return 1;
     if (n > k->max_substeps) return (int)k->max_substeps;
@@ -306,7 +345,7 @@ static int substeps(const Constants *k, const double *s, double h, double tb)
 /* Outputs of the plant (vehicle.VehiclePlant._outputs_at, order sideslip.signals.PLANT_OUTPUTS) */
 static void outputs(const Constants *k, const Held *u, const double *s, double dT, double *out)
 {
-    double dx[N_STATES], aux[12];
+    double dx[N_STATES], aux[13];
     double bank, ay_body, phi = s[PHI];
     derivative(k, u, s, dT, dx, aux);
     bank = atan2(u->gsb, k->gravity * u->cb);
@@ -334,7 +373,7 @@ static void outputs(const Constants *k, const Held *u, const double *s, double d
     out[20] = aux[7];
     out[21] = 0.5 * (aux[8] + aux[9]);
     out[22] = 0.5 * (aux[10] + aux[11]);
-    out[23] = k->motor_arm * dT;
+    out[23] = k->motor_arm * dT * aux[12];
 }
 
 KERNEL_API int sideslip_plant_kernel_version(void) { return KERNEL_VERSION; }
@@ -369,7 +408,7 @@ KERNEL_API int sideslip_plant_step(const double *kp, double *io)
     dT_cmd = dT_cmd > lim ? lim : (dT_cmd < -lim ? -lim : dT_cmd);
     for (i = 0; i < N_STATES; i++)
         x[i] = state[i];
-    n = substeps(k, x, h, u.tb_f > u.tb_r ? u.tb_f : u.tb_r);
+    n = substeps(k, x, h, u.tb_f > u.tb_r ? u.tb_f : u.tb_r, fabs(dT) > fabs(dT_cmd) ? fabs(dT) : fabs(dT_cmd));
     hs = h / n;
     half = 0.5 * hs;
     h6 = hs / 6.0;

@@ -6,7 +6,8 @@ Formula tires and the estimators' *and the controller's* vehicle perturbed from 
 :mod:`sideslip.studies.accuracy`) with a seed, run in closed loop for every row of
 :data:`SOURCES`: no control; the LQR (published and drivable profiles) on the true sideslip; the
 LQR on each hardened estimator; the StabilityController (estimator and LQR in one model); the
-baseline ESC on the truth and on the best two hardened estimators.
+baseline ESC on the truth and on the best two hardened estimators.  The project's plant has wheel-slip control
+there (:data:`WHEEL_SLIP_MAX`: ABS and the motors' slip limit, as a car with stability control has).
 
 Scenarios (:data:`SCENARIOS`): FMVSS 126 sine with dwell on the SUV, 1.5A-6.5A both directions
 (:data:`FMVSS_FAMILY`); brake in a turn on packed snow (``park2018_case5``); acceleration in a turn
@@ -35,8 +36,8 @@ the default, about 6 times faster) and ``fmpy`` (the FMUs, :func:`sideslip.studi
 which agree (tests/test_stability_control.py).
 """
 from .cases import (BEST_TWO, CONDITIONS, DURATION, FMVSS_FAMILY, LAUNCH, OFF_PLANT, OFF_PLANT_SCENARIOS,
-                    OFF_PLANT_SOURCES, QUICK_FACTORS, QUICK_OFF_PLANT_FACTORS, SCENARIOS, SOURCES, ControlCase,
-                    Source, control_cases,
+                    OFF_PLANT_SOURCES, QUICK_FACTORS, QUICK_OFF_PLANT_FACTORS, SCENARIOS, SOURCES, WHEEL_SLIP_MAX,
+                    ControlCase, Source, control_cases,
                     fmvss_names, scenario_mu, steer_times, with_controller_params)
 from .engines import control_evaluation, plot_example, run_control_case, simulate_control
 from .measures import control_metrics, fmvss126_metrics
@@ -44,7 +45,7 @@ from .report import format_control_evaluation, summarise
 from .tuning import DEVELOPMENT_SET, SEARCH_SPACE, TRAINING_SET
 
 __all__ = ["CONDITIONS", "OFF_PLANT", "OFF_PLANT_SCENARIOS", "OFF_PLANT_SOURCES", "FMVSS_FAMILY", "SCENARIOS",
-           "QUICK_FACTORS", "QUICK_OFF_PLANT_FACTORS", "DURATION", "LAUNCH", "BEST_TWO", "Source",
+           "QUICK_FACTORS", "QUICK_OFF_PLANT_FACTORS", "DURATION", "LAUNCH", "WHEEL_SLIP_MAX", "BEST_TWO", "Source",
            "SOURCES", "ControlCase", "control_cases", "fmvss_names", "with_controller_params", "plot_example",
            "steer_times", "scenario_mu", "fmvss126_metrics", "control_metrics", "simulate_control", "run_control_case",
            "control_evaluation", "summarise", "format_control_evaluation", "TRAINING_SET", "DEVELOPMENT_SET",

@@ -20,6 +20,11 @@ SCENARIOS = ("park2018_case5", "park2018_case3", "control_launch_turn_sonata", "
 DURATION = {"bench_straight_sonata_long": 40.0}
 """Scenarios run shorter than defined [s] (the straight drive: 10 s at 10 m/s, 0.8 m/s2 to 30 m/s, 5 s at it)."""
 LAUNCH = "control_launch_turn_sonata"
+WHEEL_SLIP_MAX = 0.1
+"""The project's plant in every closed loop of the evaluation and the tuning study has wheel-slip control (its
+``wheel_slip_max``: ABS on the brakes, a slip limit on the in-wheel motors), as every car with stability control
+has: without it the driver's brake locks the wheels in a braked turn on snow and the motors' torque difference
+spins the wheels, and which wheel locks when, not the controller, decides the outcome (docs, "Stability control")."""
 
 
 @dataclass(frozen=True)
@@ -62,6 +67,7 @@ class ControlCase:
     params: tuple = ()                     #: controller parameter overrides (tuning)
     overrides: tuple = ()                  #: scenario overrides
     plant: str = OWN                       #: the plant (sideslip.studies.drives.PLANTS)
+    wheel_slip_max: float = WHEEL_SLIP_MAX  #: the project's plant's wheel-slip control (0: none; CommonRoad's: unused)
 
     @property
     def condition_label(self) -> str:
@@ -101,18 +107,21 @@ one)."""
 
 def control_cases(sources=SOURCES, conditions=CONDITIONS, seeds=2, factors=FMVSS_FACTORS, directions=("", "_right"),
                   scenarios=SCENARIOS, off_plant: bool = True, off_plant_factors=None,
-                  off_plants=(OFF_PLANT,)) -> list[ControlCase]:
-    """Every scenario x condition x seed x row on the project's plant and, with ``off_plant``, the FMVSS 126 runs
-    (at ``off_plant_factors``, default ``factors``) and :data:`OFF_PLANT_SCENARIOS` x seed x the rows of ``sources``
-    among :data:`OFF_PLANT_SOURCES` on each of ``off_plants`` (CommonRoad's, :data:`sideslip.studies.drives.PLANTS`;
-    default :data:`OFF_PLANT`), under :data:`~sideslip.studies.accuracy.OFF_PLANT_CONDITION`."""
+                  off_plants=(OFF_PLANT,), wheel_slip_max: float = WHEEL_SLIP_MAX) -> list[ControlCase]:
+    """Every scenario x condition x seed x row on the project's plant (with ``wheel_slip_max``) and, with
+    ``off_plant``, the FMVSS 126 runs (at ``off_plant_factors``, default ``factors``) and :data:`OFF_PLANT_SCENARIOS`
+    x seed x the rows of ``sources`` among :data:`OFF_PLANT_SOURCES` on each of ``off_plants`` (CommonRoad's,
+    :data:`sideslip.studies.drives.PLANTS`; default :data:`OFF_PLANT`), under
+    :data:`~sideslip.studies.accuracy.OFF_PLANT_CONDITION`."""
     fmvss = fmvss_names(factors, directions)
     names = [*fmvss, *scenarios]
-    out = [ControlCase(n, c, s, src) for n in names for c in conditions for s in range(seeds) for src in sources]
+    out = [ControlCase(n, c, s, src, wheel_slip_max=wheel_slip_max)
+           for n in names for c in conditions for s in range(seeds) for src in sources]
     if off_plant:
         off = [*fmvss_names(factors if off_plant_factors is None else off_plant_factors, directions),
                *(n for n in OFF_PLANT_SCENARIOS if n in scenarios)]
-        out += [ControlCase(n, OFF_PLANT_CONDITION, s, src, plant=plant) for plant in off_plants for n in off
+        out += [ControlCase(n, OFF_PLANT_CONDITION, s, src, plant=plant, wheel_slip_max=wheel_slip_max)
+                for plant in off_plants for n in off
                 for s in range(seeds) for src in sources if src.label in OFF_PLANT_SOURCES]
     return out
 

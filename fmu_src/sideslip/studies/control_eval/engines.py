@@ -54,7 +54,7 @@ def _library(case: ControlCase, s, duration: float) -> dict:
     # on a CommonRoad car the driver knows it by its identified file (as the estimators and the controller do)
     driver = Driver(build(DriverConfig, sc.driver_params() if n is None else
                           {**sc.driver_params(), **{k: s.driver[k] for k in ("vehicle", "vehicle_overrides")}}))
-    plant = (VehiclePlant(build(PlantConfig, s.plant)) if n is None
+    plant = (VehiclePlant(build(PlantConfig, {**s.plant, "wheel_slip_max": case.wheel_slip_max})) if n is None
              else CommonRoadPlant(build(CommonRoadConfig, {"vehicle_set": n, **s.plant})))
     sensors = SensorSuite(build(SensorConfig, s.sensors))
     src, chain, links = case.source, [], {}
@@ -87,7 +87,8 @@ def _fmpy(case: ControlCase, s, duration: float, fmu_dir) -> dict:
     if case.plant != OWN:
         raise ValueError(f"the fmpy engine runs the project's plant; {case.plant} runs in the library engine")
     sc, src = s.scenario, case.source
-    params = {**{f"sensors.{k}": v for k, v in s.sensors.items()}, **{f"plant.{k}": v for k, v in s.plant.items()}}
+    params = {**{f"sensors.{k}": v for k, v in s.sensors.items()}, **{f"plant.{k}": v for k, v in s.plant.items()},
+              "plant.wheel_slip_max": case.wheel_slip_max}
     diff = {k: v for k, v in dataclasses.asdict(s.estimator_vehicle).items()
             if dataclasses.asdict(s.vehicle)[k] != v}
     overrides = format_assignments({**parse_assignments(sc.vehicle_overrides, "vehicle_overrides"), **diff})

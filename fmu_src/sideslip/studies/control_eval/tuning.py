@@ -27,7 +27,8 @@ the ESC's; and FMVSS 126's effort - the mean effort of the FMVSS runs at most :d
 (the means over every maneuver are dominated by the spin-outs, where the two differ by far more).
 
 All under ``sensors+mismatch`` (sensor errors; the plant on Magic Formula tires and the controller's vehicle
-perturbed from the plant's).  A run's figures are those of the control evaluation
+perturbed from the plant's), the plant with the evaluation's wheel-slip control
+(:data:`~sideslip.studies.control_eval.WHEEL_SLIP_MAX`).  A run's figures are those of the control evaluation
 (:func:`~sideslip.studies.control_eval.control_metrics`).
 """
 from __future__ import annotations
