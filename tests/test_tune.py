@@ -163,7 +163,10 @@ def test_control_case_sets_default_quick_plants_and_a_parameter_file(tmp_path):
     # the project's plant's wheel-slip control: the evaluation's by default, none on asking
     from sideslip.studies.control_eval import WHEEL_SLIP_MAX
     assert WHEEL_SLIP_MAX > 0 and {c.wheel_slip_max for c in quick} == {WHEEL_SLIP_MAX}
-    assert {c.wheel_slip_max for c in _control_args("--quick", "--wheel-slip-max", "0")} == {0.0}
+    locking = _control_args("--quick", "--wheel-slip-max", "0", "--plant", "own")
+    assert {c.wheel_slip_max for c in locking} == {0.0}
+    assert {c.condition_label for c in locking} == {"sensors, wheel_slip_max 0", "sensors+mismatch, wheel_slip_max 0"}
+    assert {c.condition_label for c in quick if c.plant == "own"} == {"sensors", "sensors+mismatch"}
     with pytest.raises(ValueError, match=r"--wheel-slip-max 0.7: a slip in \[0, 0.5\]"):
         _control_args("--wheel-slip-max", "0.7")
     write_param_file(tmp_path / "p.json", "LqrDycController", {"q_gamma": 2e9, "friction_source": 0})

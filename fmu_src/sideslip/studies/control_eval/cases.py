@@ -71,8 +71,13 @@ class ControlCase:
 
     @property
     def condition_label(self) -> str:
-        """The condition, with the plant when it is not the project's (``sensors+mismatch@commonroad3``)."""
-        return self.condition if self.plant == OWN else f"{self.condition}@{self.plant}"
+        """The condition, with the plant when it is not the project's (``sensors+mismatch@commonroad3``), and with the
+        project's plant's wheel-slip control when it is not :data:`WHEEL_SLIP_MAX` (``sensors, wheel_slip_max 0``)."""
+        if self.plant != OWN:
+            return f"{self.condition}@{self.plant}"
+        if self.wheel_slip_max != WHEEL_SLIP_MAX:
+            return f"{self.condition}, wheel_slip_max {self.wheel_slip_max:g}"
+        return self.condition
 
 
 QUICK_FACTORS = (3.5, 5.0, 6.5)
