@@ -205,9 +205,9 @@ def test_straight_drives_and_responsiveness_are_constraints_not_objectives(tmp_p
     # the bar less its standard error: a point within it of the ESC's mean is responsive enough
     assert tuning.constraints(figures, two)["responsive"] == pytest.approx(1.8 - 0.1 - 1.7)
     assert tuning.constraints(figures, {"fmvss_lateral_m": 1.8, "fmvss_stable": 1,
-                                        "fmvss_max_abs_beta_deg": 3.5}) == pytest.approx(
-        {"straight": 70.0 - tuning.STRAIGHT_RMS_MAX, "responsive": 0.1, "stable": 0.0, "sideslip": 0.5,
-         "effort": 0.0})
+                                        "fmvss_max_abs_beta_deg": 3.5, "fmvss_worst_max_abs_beta_deg": 4.5}) == (
+        pytest.approx({"straight": 70.0 - tuning.STRAIGHT_RMS_MAX, "responsive": 0.1, "stable": 0.0, "sideslip": 0.5,
+                       "sideslip_worst": -0.5, "effort": 0.0}))
     # the FMVSS runs' effort against the cap (1.2) times the ESC's: 2.0 kN m s is within 1.2 x 1.7, not 1.2 x 1.6
     cap = tuning.EFFORT_CAP
     within, beyond = (tuning.constraints(figures, {"fmvss_effort_kNms": esc})["effort"] for esc in (1.7, 1.6))
@@ -231,6 +231,77 @@ def test_straight_drives_and_responsiveness_are_constraints_not_objectives(tmp_p
                                                              for t in study.trials]
     # a figure not measured constrains nothing
     assert tuning.constraints({"straight_rms_Mz_cmd": 0.0}, {"fmvss_lateral_m": 1.8})["responsive"] == 0.0
+
+
+def test_the_worst_fmvss_maneuver_and_every_source_constrain_a_point():
+    from sideslip.studies.control_eval import tuning
+    run = {"rms_yaw_rate_error_deg_s": 2.0, "effort_Nms": 2000.0, "saturated_pct": 0.0, "rms_dMz_dt": 1.0,
+           "sim_seconds": 5.0, "yaw_stable": True}
+    # the seeds' mean on each maneuver, the worst maneuver: a point that holds less on mu 0.5 and more on a dry
+    # road than the ESC is within the mean's constraint and beyond the worst maneuver's
+    runs = [{**run, "scenario": name, "max_abs_beta_deg": b, "source": "truth"}
+            for name, b in (("mu05", 3.0), ("mu05", 3.2), ("mu05_b", 3.1), ("mu05_b", 3.1), ("mu08", 5.8),
+                            ("mu08", 6.2))]
+    esc = [{**r, "max_abs_beta_deg": b} for r, b in zip(runs, (4.0, 4.0, 4.2, 4.2, 5.4, 5.6))]
+    mine, bar = tuning.objectives(runs), tuning.objectives(esc)
+    assert mine["fmvss_worst_max_abs_beta_deg"] == pytest.approx(6.0) and bar["fmvss_worst_max_abs_beta_deg"] == 5.5
+    c = tuning.constraints(mine, bar)
+    assert c["sideslip"] < 0.0 and c["sideslip_worst"] == pytest.approx(0.5)
+    # two sources: the objectives their mean, a constrained figure the worst source's
+    fusion = [{**r, "source": "SideslipFusion", "max_abs_beta_deg": r["max_abs_beta_deg"] - 1.0,
+               "rms_yaw_rate_error_deg_s": 3.0, "yaw_stable": r["scenario"] != "mu05_b"} for r in runs]
+    both = tuning.point_figures(runs + fusion)
+    assert tuning.point_figures(runs) == mine
+    assert both["rms_yaw_rate_error_deg_s"] == pytest.approx(2.5) and both["max_abs_beta_deg"] == pytest.approx(
+        (mine["max_abs_beta_deg"] * 2 - 1.0) / 2)
+    assert both["fmvss_worst_max_abs_beta_deg"] == pytest.approx(6.0) and both["fmvss_stable"] == 4
+    assert tuning.constraints(both, bar)["stable"] == 2.0 and both["sim_seconds"] == 60.0
+    # the cases: every source x maneuver x seed; the truth named either way, a repeat run once
+    cases = tuning_cases(defaults(), TRAINING_SET[:1], (1, 2), ("truth", "SideslipFusion", None))
+    assert [(c.source.estimator, c.seed) for c in cases] == [(None, 1), (None, 2), ("SideslipFusion", 1),
+                                                             ("SideslipFusion", 2)]
+    assert set(search_space(["truth", "SideslipFusion"])) == set(SEARCH_SPACE) and set(search_space("truth")) == (
+        set(SEARCH_SPACE) - set(TRUST))
+
+
+def test_tune_names_a_source_it_does_not_know(tmp_path):
+    r = _cli("tune", "--source", "truth", "--source", "SideslipFuzion", "--out", str(tmp_path / "t"), cwd=tmp_path)
+    assert r.returncode != 0 and "SideslipFuzion" in r.stderr and "SideslipFusion" in r.stderr
+    assert "Traceback" not in r.stderr and not (tmp_path / "t").exists()
+
+
+def test_without_a_point_within_the_constraints_the_choice_takes_the_least_beyond_them():
+    from sideslip.studies.control_eval.study import choose_point
+    esc = {"rms_yaw_rate_error_deg_s": 4.0, "effort_kNms": 2.4, "max_abs_beta_deg": 5.6, "fmvss_stable": 10,
+           "fmvss_max_abs_beta_deg": 4.9, "fmvss_worst_max_abs_beta_deg": 5.5, "straight_rms_Mz_cmd": 0.0}
+    near = {**esc, "rms_yaw_rate_error_deg_s": 3.2, "effort_kNms": 2.45, "max_abs_beta_deg": 4.0,
+            "fmvss_max_abs_beta_deg": 4.8, "fmvss_worst_max_abs_beta_deg": 6.0}          # 0.5 deg beyond one
+    cheap = {**near, "effort_kNms": 2.0, "max_abs_beta_deg": 4.2, "fmvss_max_abs_beta_deg": 5.0,
+             "fmvss_worst_max_abs_beta_deg": 6.3}                                        # 0.9 beyond two, less effort
+    best, rank, excess, ok = choose_point({"near": near, "cheap": cheap}, esc)
+    assert not ok and rank["cheap"] < rank["near"] and excess == pytest.approx({"near": 0.5, "cheap": 0.9})
+    assert best == "near"
+    # within the constraints, both: the objectives decide (yaw-rate error and max |beta| over the ESC's)
+    fine = {k: {**f, "fmvss_max_abs_beta_deg": 4.8, "fmvss_worst_max_abs_beta_deg": 5.4} for k, f in
+            (("near", near), ("cheap", cheap))}
+    best, rank, excess, ok = choose_point(fine, esc)
+    assert ok and best == "near" and excess == {"near": 0.0, "cheap": 0.0}
+    # an unstable point is not chosen however close it is
+    best = choose_point({"near": {**near, "fmvss_stable": 9}, "cheap": cheap}, esc)[0]
+    assert best == "cheap"
+
+
+def test_a_study_on_two_sources_runs_each_point_on_both_and_the_esc_on_the_truth(tmp_path):
+    s = run_study(tmp_path / "study", n_trials=2, source=("truth", "SideslipFusion"), **{**TINY, "dev_points": 1})
+    runs = [json.loads(line) for line in (tmp_path / "study" / "runs.jsonl").read_text().splitlines()]
+    esc = [r for r in runs if "BaselineEsc" in r["key"]]
+    lqr = [r for r in runs if "LqrDycController" in r["key"]]
+    assert {r["result"]["source"] for r in esc} == {"truth"}
+    assert {r["result"]["source"] for r in lqr} == {"truth", "SideslipFusion"}
+    assert s["source"] == "truth, SideslipFusion" and s["sim_seconds"] == 2 * 2 * 1.5
+    trials = open_study(tmp_path / "study" / "journal.log").trials
+    assert set(TRUST) <= set(trials[1].params)          # an estimator among the sources: its trust is searched
+    assert json.loads((tmp_path / "study" / "chosen.json").read_text())["info"]["source"] == "truth, SideslipFusion"
 
 
 def test_a_study_started_from_a_point_runs_it_on_the_development_set(tmp_path):

@@ -129,16 +129,15 @@ def _cmd_tune(args) -> int:
     from ..studies.control_eval.study import run_study
     from ..studies.control_eval.tuning import EFFORT_CAP, OBJECTIVES
 
-    if args.source not in (None, "truth"):
-        from ..estimators import ESTIMATORS
-        from ..params import one_of
-        if args.source not in ESTIMATORS:
-            raise ValueError(one_of(args.source, ESTIMATORS, "estimator"))
+    from ..estimators import ESTIMATORS
+    from ..params import one_of
+    for source in args.source or ():
+        if source != "truth" and source not in ESTIMATORS:
+            raise ValueError(one_of(source, ESTIMATORS, "estimator"))
     out = Path(args.out)
     start = [read_param_file(f, "LqrDycController")[1] for f in args.start]
-    s = run_study(out, args.trials, args.workers, args.scheduler, None if args.source in (None, "truth") else
-                  args.source, args.sampler, args.seed, args.study, args.dev_points, fmu_dir=args.fmu_dir,
-                  start=start)
+    s = run_study(out, args.trials, args.workers, args.scheduler, args.source, args.sampler, args.seed, args.study,
+                  args.dev_points, fmu_dir=args.fmu_dir, start=start)
     names = {"rms_yaw_rate_error_deg_s": "RMS yaw-rate error [deg/s]", "effort_kNms": "effort [kN m s]",
              "max_abs_beta_deg": "max |beta| [deg]"}
     chosen, shipped = s["chosen"], s["shipped"]
@@ -150,7 +149,8 @@ def _cmd_tune(args) -> int:
         print(f"  {names[k]:28s} {chosen['training'][k]:9.3f} {chosen['development'][k]:9.3f} {ref:12.3f} "
               f"{s['esc']['development'][k]:9.3f}")
     if not chosen["within_effort_cap"]:
-        print(f"  no point of the front kept within {EFFORT_CAP:g}x the ESC's effort on the development set")
+        print(f"  no point kept within the constraints and {EFFORT_CAP:g}x the ESC's effort on the development set; "
+              f"chosen: the least beyond the constraints ({chosen['development_excess']:.3g})")
     print("  " + ", ".join(f"{k} {v:.4g}" for k, v in chosen["parameters"].items()))
     if s["sim_seconds"]:
         total = s['sim_seconds'] + s['development_sim_seconds']
@@ -169,12 +169,14 @@ def register_tune(sub) -> None:
                           formatter_class=EXAMPLES_FORMAT, epilog="examples:\n  sideslip tune --trials 80\n"
                           "  sideslip tune --trials 120   # the same study goes on to 120 points\n"
                           "  sideslip tune --source SideslipFusion --out out/tune_fusion\n"
+                          "  sideslip tune --source truth --source SideslipFusion   # one file for both\n"
                           "  sideslip tune --scheduler local --workers 2   # a local Dask cluster\n"
                           "  sideslip tune --start out/tune_a/chosen.json --out out/tune_b   # warm start\n"
                           "  sideslip control --params out/tune/chosen.json   # the held-out evaluation")
     tune.add_argument("--trials", type=count, default=60, help="points the study should hold when done, those of "
                       "earlier runs and of other processes on the same --out included (default %(default)s)")
-    tune.add_argument("--source", help="estimator feeding the LQR (hardened) or 'truth' (default)")
+    tune.add_argument("--source", action="append", help="estimator feeding the LQR (hardened) or 'truth' "
+                      "(default); repeatable: every point runs on each, within the constraints on each")
     tune.add_argument("--sampler", choices=SAMPLERS, default="tpe", help="Optuna sampler: multi-objective TPE "
                       "(default) or NSGA-II")
     tune.add_argument("--seed", type=int, default=0, help="the sampler's seed (default %(default)s)")

@@ -6,24 +6,25 @@ together, and that a stopped study goes on from.
 
 A study (:func:`run_study`):
 
-1. runs the baseline ESC on the training set (the bar of the responsiveness constraint), then asks the sampler
+1. runs the baseline ESC on the training set (on the truth: the bar of the constraints), then asks the sampler
    for a batch of points of :data:`~sideslip.studies.control_eval.tuning.SEARCH_SPACE` (on the truth without the
    trust in an estimator: :func:`~sideslip.studies.control_eval.tuning.search_space`; the shipped parameters are
    the study's first point) and runs each on the training set
-   (:data:`~sideslip.studies.control_eval.tuning.TRAINING_SET` x seeds) with the one job runner - a local pool or
-   a Dask cluster, kept for the whole study; every run's figures are appended to ``runs.jsonl`` as it finishes
-   and a point's objectives go to the storage as soon as its runs are in;
+   (:data:`~sideslip.studies.control_eval.tuning.TRAINING_SET` x seeds, on each source) with the one job runner -
+   a local pool or a Dask cluster, kept for the whole study; every run's figures are appended to ``runs.jsonl`` as
+   it finishes and a point's objectives go to the storage as soon as its runs are in;
 2. takes the Pareto front of the training objectives (yaw-rate tracking, effort, max ``|beta|``), runs up to
    ``dev_points`` of it, spread along the tracking axis, the points it was started from (``start``: e.g. another
-   study's choice; TPE's fronts differ much between studies), the shipped point and the baseline ESC (on the same
-   source) on the development set, and chooses what the LQR has to earn against the ESC: among the points with
-   at most :data:`~sideslip.studies.control_eval.tuning.EFFORT_CAP` times the ESC's effort, at least as many
-   FMVSS 126 runs yaw-stable and within the constraints
+   study's choice; TPE's fronts differ much between studies), the shipped point and the baseline ESC (on the truth:
+   the evaluation's ``ESC / truth`` row) on the development set, and chooses what the LQR has to earn against the
+   ESC: among the points with at most :data:`~sideslip.studies.control_eval.tuning.EFFORT_CAP` times the ESC's
+   effort, at least as many FMVSS 126 runs yaw-stable and within the constraints
    (:func:`~sideslip.studies.control_eval.tuning.constraints`: the straight drive quiet, the FMVSS runs as
-   responsive as the ESC's, within its standard error, with no more sideslip and at most the same multiple of its
-   effort), the smallest sum of yaw-rate error and max ``|beta|``, each over the ESC's (without such a point, the
-   smallest sum of all three ratios among those keeping the FMVSS 126 runs stable and
-   within the constraints, or failing that stable);
+   responsive as the ESC's, within its standard error, with no more sideslip, on the mean and on the worst
+   maneuver, and at most the same multiple of its effort), the smallest sum of yaw-rate error and max ``|beta|``,
+   each over the ESC's (without such a point, among those keeping the FMVSS 126 runs stable: the least beyond the
+   constraints - the sum of how far beyond each, as Optuna's samplers rank such points - then the smallest sum of
+   all three ratios);
 3. writes the chosen point as a parameter file (``chosen.json``, ``chosen.ssv``:
    :mod:`sideslip.fmi.param_file`; what the study did not search at the shipped values), every point
    (``trials.csv``), the Pareto-front plot (``pareto.png``) and ``summary.json`` (the study's throughput: simulated
@@ -50,9 +51,10 @@ from ...progress import progress_bar
 from ...scenarios import get_scenario
 from ..jobs import ResultLog, parallel_map, worker_pool
 from .tuning import (DEVELOPMENT_SEEDS, DEVELOPMENT_SET, EFFORT_CAP, OBJECTIVES, SEARCH_SPACE, TRAINING_SEEDS,
-                     TRAINING_SET, constraints, defaults, evaluate_case, objectives, search_space, tuning_cases)
+                     TRAINING_SET, as_sources, constraints, defaults, evaluate_case, point_figures, search_space,
+                     tuning_cases)
 
-__all__ = ["run_study", "SAMPLERS", "STUDY_NAME"]
+__all__ = ["run_study", "choose_point", "SAMPLERS", "STUDY_NAME"]
 
 STUDY_NAME = "lqr"
 SAMPLERS = ("tpe", "nsga2")
@@ -101,14 +103,14 @@ def open_study(path, name: str = STUDY_NAME, sampler: str = "tpe", seed: int = 0
     return study
 
 
-def start_point(values: dict, source: str | None = None) -> dict:
+def start_point(values: dict, source=None) -> dict:
     """A parameter file's values as a point of the search space of a study with ``source`` (what it lacks at the
     shipped values; :func:`~sideslip.studies.control_eval.tuning.search_space`)."""
     space = search_space(source)
     return {k: v for k, v in {**defaults(), **values}.items() if k in space}
 
 
-def _suggest(trial, source: str | None = None) -> dict:
+def _suggest(trial, source=None) -> dict:
     out = {}
     for name, (kind, lo, hi) in search_space(source).items():
         if kind == "int":
@@ -150,12 +152,12 @@ def _sim_seconds(cases) -> float:
 def _evaluate_points(points: dict, maneuvers, seeds, source, pool, workers, log: ResultLog, fmu_dir, bar,
                      done=None, controllers=None) -> tuple[dict, float]:
     """Run every point's cases (``points``: key -> parameters; ``controllers``: key -> a controller other than the
-    LQR) through the job runner, calling ``done(key, runs)`` as each point's runs are all in; returns
-    ``({key: runs}, simulated seconds run)``."""
+    LQR, which runs on the truth; the LQR on ``source``) through the job runner, calling ``done(key, runs)`` as
+    each point's runs are all in; returns ``({key: runs}, simulated seconds run)``."""
     cached = log.load()
     controllers = controllers or {}
-    cases = {key: tuning_cases(p, maneuvers, seeds, source, controllers.get(key, "LqrDycController"))
-             for key, p in points.items()}
+    cases = {key: tuning_cases(p, maneuvers, seeds, None, controllers[key]) if key in controllers else
+             tuning_cases(p, maneuvers, seeds, source) for key, p in points.items()}
     runs = {key: {} for key in points}
     waiting: dict[str, list] = {}
     for key, cs in cases.items():
@@ -190,7 +192,7 @@ def _evaluate_points(points: dict, maneuvers, seeds, source, pool, workers, log:
     return finished, sim
 
 
-def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source: str | None = None,
+def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source=None,
               sampler: str = "tpe", seed: int = 0, name: str = STUDY_NAME, dev_points: int = 10,
               training=TRAINING_SET, training_seeds=TRAINING_SEEDS, development=DEVELOPMENT_SET,
               development_seeds=DEVELOPMENT_SEEDS, fmu_dir=DEFAULT_OUT, progress: bool = True, start=()) -> dict:
@@ -207,8 +209,9 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
         Local processes (1: in this process).
     scheduler : str, optional
         A Dask scheduler's address, or ``"local"`` for a Dask cluster of ``workers`` processes here.
-    source : str, optional
-        The estimator that feeds the LQR (hardened profile); None: the plant's truth.
+    source : str or sequence of str, optional
+        The estimator that feeds the LQR (hardened profile), ``"truth"`` or None for the plant's truth, or several
+        of them: each point runs on each (:func:`~sideslip.studies.control_eval.tuning.point_figures`).
     sampler : str
         ``tpe`` (multi-objective TPE) or ``nsga2``.
     start : sequence of dict
@@ -223,20 +226,21 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
         simulated, development runs included, per wall second) of this run, and the files written.
     """
     optuna = _optuna()
-    out = Path(out)
+    out, source = Path(out), as_sources(source)
     study = open_study(out / "journal.log", name, sampler, seed, start, source)
     released = _release_stale(study)
     log = ResultLog(out / "runs.jsonl")
     complete_state = optuna.trial.TrialState.COMPLETE
     have = len(study.get_trials(deepcopy=False, states=(complete_state,)))
-    per_point = _sim_seconds(tuning_cases({}, training, training_seeds))
+    per_point = _sim_seconds(tuning_cases({}, training, training_seeds, source))
     todo = max(n_trials - have, 0)
     bar = progress_bar(todo * per_point + (dev_points + 2) * _sim_seconds(
-        tuning_cases({}, development, development_seeds)), "tune", "sim s", enabled=None if progress else False)
+        tuning_cases({}, development, development_seeds, source)), "tune", "sim s",
+        enabled=None if progress else False)
     t0, sim = time.perf_counter(), 0.0
     owner = f"{socket.gethostname()}:{os.getpid()}"
     with worker_pool(workers, scheduler) as pool:
-        esc = _esc_figures(training, training_seeds, source, pool, workers, log, fmu_dir)
+        esc = _esc_figures(training, training_seeds, pool, workers, log, fmu_dir)
         while True:
             have = len(study.get_trials(deepcopy=False, states=(complete_state,)))
             if have >= n_trials:
@@ -259,7 +263,7 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
                     study.tell(trial, state=optuna.trial.TrialState.FAIL)
                     return
                 try:
-                    figures = objectives(runs)
+                    figures = point_figures(runs)
                 except ValueError as exc:
                     trial.set_user_attr("error", str(exc))
                     study.tell(trial, state=optuna.trial.TrialState.FAIL)
@@ -278,25 +282,51 @@ def run_study(out, n_trials: int = 60, workers: int = 2, scheduler=None, source:
     bar.close()
     wall = time.perf_counter() - t0
     ran = sim + summary["development_sim_seconds"]          # what this run simulated, for its throughput
-    summary.update(study=name, sampler=sampler, source=source or "truth", released_stale=released,
+    summary.update(study=name, sampler=sampler, source=_label(source), released_stale=released,
                    sim_seconds=sim, wall_seconds=wall, sim_per_wall=ran / wall if wall > 0 else math.nan,
                    workers="dask " + str(scheduler) if scheduler is not None else workers)
     (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     return summary
 
 
-def _esc_figures(maneuvers, seeds, source, pool, workers, log, fmu_dir) -> dict:
-    """The baseline ESC's :func:`objectives` on a set (its runs are kept in the log like the points')."""
-    runs = _evaluate_points({"esc": {}}, maneuvers, seeds, source, pool, workers, log, fmu_dir, None,
+def _label(source: tuple) -> str:
+    return ", ".join(s or "truth" for s in source)
+
+
+def _esc_figures(maneuvers, seeds, pool, workers, log, fmu_dir) -> dict:
+    """The baseline ESC's figures on a set, on the truth (its runs are kept in the log like the points')."""
+    runs = _evaluate_points({"esc": {}}, maneuvers, seeds, None, pool, workers, log, fmu_dir, None,
                             controllers={"esc": "BaselineEsc"})[0]["esc"]
     errors = [r["error"] for r in runs if "error" in r]
     if errors:
         raise RuntimeError("the baseline ESC failed on the training set: " + errors[0])
-    return objectives(runs)
+    return point_figures(runs)
 
 
 def _feasible(figures: dict, esc: dict) -> bool:
     return all(v <= 0.0 for v in constraints(figures, esc).values())
+
+
+def choose_point(lqr: dict, esc: dict) -> tuple:
+    """The development set's choice (module docstring) among the points' figures ``lqr`` (key -> figures) against
+    the ESC's ``esc``: ``(key, {key: score}, {key: excess beyond the constraints}, whether a point was within the
+    constraints and the effort cap)``."""
+    ratio = {k: {o: s[o] / max(esc[o], 1e-9) for o in OBJECTIVES} for k, s in lqr.items()}
+    stable = [k for k, s in lqr.items() if s["fmvss_stable"] >= esc["fmvss_stable"]] or list(lqr)
+    stable = [k for k in stable if _feasible(lqr[k], esc)] or stable
+    ok = [k for k in stable if lqr[k]["effort_kNms"] <= EFFORT_CAP * esc["effort_kNms"] and _feasible(lqr[k], esc)]
+    excess = {k: _excess(lqr[k], esc) for k in stable}
+    if ok:
+        rank = {k: ratio[k]["rms_yaw_rate_error_deg_s"] + ratio[k]["max_abs_beta_deg"] for k in ok}
+        return min(rank, key=rank.get), rank, excess, True
+    rank = {k: sum(ratio[k].values()) for k in stable}  # the constraints first: the least beyond them, then the ratios
+    return min(rank, key=lambda k: (excess[k], rank[k])), rank, excess, False
+
+
+def _excess(figures: dict, esc: dict) -> float:
+    """How far a point is beyond its constraints: the sum of the positive ones (0 within them all), as Optuna's
+    samplers rank points beyond them."""
+    return float(sum(max(v, 0.0) for v in constraints(figures, esc).values()))
 
 
 def _choose(study, out: Path, source, development, seeds, dev_points: int, pool, workers, log, fmu_dir, bar,
@@ -322,7 +352,7 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
     dev, ran = _evaluate_points(points, development, seeds, source, pool, workers, log, fmu_dir, bar,
                                 controllers={"esc": "BaselineEsc"})
     failed = {k for k, runs in dev.items() if any("error" in r for r in runs)}
-    scores = {k: objectives(runs) for k, runs in dev.items() if k not in failed}
+    scores = {k: point_figures(runs) for k, runs in dev.items() if k not in failed}
     if "esc" not in scores:
         raise RuntimeError("the baseline ESC failed on the development set: " + next(
             r["error"] for r in dev["esc"] if "error" in r))
@@ -330,22 +360,16 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
     lqr = {k: s for k, s in scores.items() if k not in ("esc", "shipped")}
     if not lqr:
         raise RuntimeError("no point of the Pareto front ran on the development set")
-    ratio = {k: {o: s[o] / max(esc[o], 1e-9) for o in OBJECTIVES} for k, s in lqr.items()}
-    stable = [k for k, s in lqr.items() if s["fmvss_stable"] >= esc["fmvss_stable"]] or list(lqr)
-    stable = [k for k in stable if _feasible(lqr[k], esc)] or stable
-    ok = [k for k in stable if lqr[k]["effort_kNms"] <= EFFORT_CAP * esc["effort_kNms"] and _feasible(lqr[k], esc)]
-    if ok:
-        rank = {k: ratio[k]["rms_yaw_rate_error_deg_s"] + ratio[k]["max_abs_beta_deg"] for k in ok}
-    else:
-        rank = {k: sum(ratio[k].values()) for k in stable}
-    best = min(rank, key=rank.get)
+    best, rank, excess, ok = choose_point(lqr, esc)
     chosen = by_number[int(best)]
-    info = {"study": study.study_name, "trial": chosen.number, "source": source or "truth",
+    info = {"study": study.study_name, "trial": chosen.number, "source": _label(source),
             "training": {k: chosen.user_attrs.get(k) for k in (*OBJECTIVES, "fmvss_stable", "fmvss_runs",
                                                                 "fmvss_lateral_m", "fmvss_max_abs_beta_deg",
+                                                                "fmvss_worst_max_abs_beta_deg",
                                                                 "fmvss_effort_kNms", "straight_rms_Mz_cmd")},
             "development": scores[best], "shipped_development": scores.get("shipped"), "esc_development": esc,
-            "within_effort_cap": bool(ok), "development_score": rank[best]}
+            "within_effort_cap": bool(ok), "development_score": rank[best],
+            "development_excess": excess[best]}
     params = {**defaults(), **chosen.params}          # what the study did not search, at the shipped values
     files = [write_param_file(out / "chosen.json", "LqrDycController", params, info),
              write_param_file(out / "chosen.ssv", "LqrDycController", params)]
@@ -372,7 +396,7 @@ def _write_trials(trials, path: Path) -> Path:
     import csv
 
     extra = ("worst_max_abs_beta_deg", "saturated_pct", "rms_dMz_dt", "fmvss_stable", "fmvss_runs",
-             "fmvss_lateral_m", "straight_rms_Mz_cmd")
+             "fmvss_lateral_m", "fmvss_max_abs_beta_deg", "fmvss_worst_max_abs_beta_deg", "straight_rms_Mz_cmd")
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["trial", *SEARCH_SPACE, *OBJECTIVES, *extra])
