@@ -648,6 +648,15 @@ def test_lqr_dead_band_band_limited_sideslip_feedback_sideslip_first_and_limiter
     assert ctl.beta_limit == 0.5 * sideslip_limit(1.0)
     assert fb_half - _feedback(beta, gamma_ref)[0] == pytest.approx(
         -10.0 * ctl.vehicle.I_zz * (0.5 * sideslip_limit(1.0) + 0.02))
+    # the bound stops growing above beta_limit_mu_max, on the parameter mu and on the friction it follows
+    fb_cap, *_, ctl = _feedback(beta, gamma_ref, k_beta=10.0, beta_limit_mu_max=0.5)
+    assert ctl.beta_limit == sideslip_limit(0.5) and fb_cap - fb_lim == pytest.approx(
+        -10.0 * ctl.vehicle.I_zz * (sideslip_limit(1.0) - sideslip_limit(0.5)))
+    capped = LqrDycController(LqrDycConfig(vehicle="park2018_sonata", k_beta=10.0, beta_limit_scale=0.8,
+                                           beta_limit_mu_max=0.5, friction_source=1, mu_floor=0.1))
+    for mu_hat, bound in ((0.9, 0.8 * sideslip_limit(0.5)), (0.3, 0.8 * sideslip_limit(0.3))):
+        capped._follow_friction(mu_hat)
+        assert capped.beta_limit == pytest.approx(bound)
 
 
 def test_the_sideslip_limiter_ahead_acts_on_the_sideslip_plus_its_rate_times_the_lead():

@@ -91,6 +91,7 @@ CONFIGS = {
                                            "t_steer_offset": 0.5},
     "one sample in ten steps, mu_hat": {"Ts_control": 0.01, "valid_gate": 0, "k_integral": 1.0, "friction_source": 1},
     "limiter ahead, mu_hat": {"k_beta": 30.0, "beta_limit_scale": 0.5, "t_beta_lead": 0.3, "friction_source": 1},
+    "limiter's bound capped, mu_hat": {"k_beta": 30.0, "beta_limit_mu_max": 0.6, "friction_source": 1},
 }
 
 

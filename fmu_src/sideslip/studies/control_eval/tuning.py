@@ -95,6 +95,7 @@ SEARCH_SPACE = {
     "beta_feedback": ("int", 0, 2),
     "k_beta": ("float", 0.0, 40.0),
     "beta_limit_scale": ("float", 0.4, 1.5),
+    "beta_limit_mu_max": ("float", 0.3, 2.0),
     "t_beta_lead": ("float", 0.0, 0.5),
     "k_integral": ("float", 0.0, 5.0),
     "valid_gate": ("int", 0, 1),
@@ -105,10 +106,10 @@ SEARCH_SPACE = {
 weights and their friction schedule, its reference lags, the speed schedule's fade-in, the friction schedule
 (follow ``mu_hat`` down to ``mu_floor``, or not), the command shaping (rate limit, band-limited
 feed-forward) and the nonlinear parts (yaw-rate dead band, sideslip feedback beyond its reference only, sideslip
-first, sideslip limiter with its bound and its lead, yaw-rate integral: :mod:`sideslip.control.dyc`) and the
-trust in an estimator (its ``valid`` fading the sideslip feedback or not, the feedback weighted by its
-``beta_hat_std``: no effect on the truth, so searched only with an estimator as the source: :func:`search_space`).
-``q_N`` stays 1: the gains depend only on the weights' ratios."""
+first, sideslip limiter with its bound, the friction above which the bound stops growing and its lead, yaw-rate
+integral: :mod:`sideslip.control.dyc`) and the trust in an estimator (its ``valid`` fading the sideslip feedback
+or not, the feedback weighted by its ``beta_hat_std``: no effect on the truth, so searched only with an estimator
+as the source: :func:`search_space`).  ``q_N`` stays 1: the gains depend only on the weights' ratios."""
 TRUST = ("valid_gate", "beta_std_ref")
 """The parameters of the trust in an estimator: they act on an estimator's ``valid`` and ``beta_hat_std``, not on the
 truth."""
