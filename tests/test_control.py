@@ -21,6 +21,7 @@ from sideslip.constants import GRAVITY
 from sideslip.control.reference import ReferenceModel
 from sideslip.control.stability import StabilityController, StabilityControllerConfig
 from sideslip.studies.runs import run_library
+from sideslip.studies.control_eval import PUBLISHED_VALUES
 from sideslip.scenarios import get_scenario
 from sideslip.estimators import ESTIMATORS
 from sideslip.params import ParameterError, build
@@ -32,9 +33,12 @@ SUV = BicycleModel.from_vehicle(load_vehicle("pi2011_suv"), 0.8, nominal=True)
 DEFAULT = LqrDycConfig()
 PLAIN = dict(q_beta=1e10, q_gamma=3e8, q_beta_mu_exponent=0.0, q_gamma_mu_exponent=0.0, tau_beta=0.15, tau_gamma=0.10,
              Mz_rate_max=4e4, v_fade=5.0, friction_source=0, mu_floor=0.2, deadband=0.0, beta_feedback=0, k_beta=0.0,
-             sideslip_priority=0, k_integral=0.0)
-"""The drivable profile with eq 25 as published and hand-set weights and lags (none of the tuned additions): the
-shaping's tests isolate one mechanism each."""
+             sideslip_priority=0, k_integral=0.0, valid_gate=1, beta_std_ref=0.0, beta_limit_scale=1.0,
+             beta_limit_mu_max=2.0, t_beta_lead=0.0)
+"""The drivable profile with eq 25 as published and hand-set weights and lags (each addition at its off value, not
+the tuned defaults): the shaping's tests isolate one mechanism each."""
+PUBLISHED = dict(PUBLISHED_VALUES)
+"""The control evaluation's published row."""
 
 
 # ------------------------------------------------------------------------------ LQR
@@ -196,7 +200,7 @@ def _hold(ctl, n, **u):
 
 
 def test_published_command_is_saturated_and_leaves_saturation_at_once():
-    ctl = LqrDycController(LqrDycConfig(mu=0.8, control_profile=0))
+    ctl = LqrDycController(LqrDycConfig(**PUBLISHED, mu=0.8))
     lim = yaw_moment_limit(ctl.vehicle)
     assert lim == pytest.approx(ctl.vehicle.motor_T_max * ctl.vehicle.t_f / ctl.vehicle.R_w)   # front motors
     out = np.r_[_hold(ctl, 2000, vx_hat=20.0, beta_hat=-1.0, yaw_rate_m=1.0), _hold(ctl, 1000, vx_hat=20.0)]
@@ -206,7 +210,7 @@ def test_published_command_is_saturated_and_leaves_saturation_at_once():
 
 
 def test_drivable_command_is_rate_limited_and_leaves_saturation_at_the_rate_limit():
-    cfg = LqrDycConfig(mu=0.8, t_transfer=0.01)
+    cfg = LqrDycConfig(**PLAIN, mu=0.8, t_transfer=0.01)
     ctl = LqrDycController(cfg)
     lim, step = ctl.Mz_max, cfg.Mz_rate_max * 1e-3
     out = np.r_[_hold(ctl, 2000, vx_hat=20.0, beta_hat=-1.0, yaw_rate_m=1.0), _hold(ctl, 1000, vx_hat=20.0)]
@@ -261,7 +265,7 @@ def test_speed_estimate_jump_sweeps_the_schedule_without_a_bump():
 
 @pytest.mark.parametrize("what", ["dyc_enable", "beta_valid"])
 def test_enable_and_valid_toggles_fade_over_t_transfer(what):
-    cfg = LqrDycConfig(mu=0.8, t_transfer=0.3, Mz_rate_max=1e7)
+    cfg = LqrDycConfig(**{**PLAIN, "mu": 0.8, "t_transfer": 0.3, "Mz_rate_max": 1e7})
     ctl = LqrDycController(cfg)
     u = dict(delta_m=0.0, vx_hat=20.0, beta_hat=0.01, yaw_rate_m=0.0)
     on = _hold(ctl, 1000, **u)
@@ -338,7 +342,7 @@ def test_stability_controller_equals_estimator_then_controller(name):
         est.step(1e-3, *[mz if n == "Mz_cmd" else (1.0 if n == "mu" else sig(n)[k]) for n in est.input_names])
         out = est.output_dict()
         ctl.step(1e-3, sig("delta_m")[k], est.vx, est.beta, sig("yaw_rate_m")[k], out["yaw_rate_hat"], out["valid"],
-                 True)
+                 True, out.get("mu_hat", 0.0), est.beta_std)
         combo.step(1e-3, *[True if n == "dyc_enable" else sig(n)[k] for n in combo.input_names])
         assert combo.outputs() == ctl.outputs() + est.outputs()[:6], k
     assert est.valid and np.abs(ctl.Mz_fb) > 0                     # both parts did something
@@ -501,13 +505,13 @@ def test_a_stopped_study_goes_on_where_it_stopped(tmp_path):
     assert {int(p.name[4:]) for p in tmp_path.glob("ran_*")} == set(range(6)) - {int(k) for k in finished}
 
 
-def _friction_run(cls, mu_hat_of_t, **values):
+def _friction_run(cls, mu_hat_of_t, vx_of_t=lambda t: 20.0, **values):
     ctl = cls(build(cls.config_class, {"vehicle": "park2018_sonata", **values}))
     out = []
     for k in range(2500):
         t = k * 1e-3
         s = math.sin(3.0 * t)
-        ctl.step(1e-3, 0.05 * s, 20.0, 0.01 * s, 0.1 * s, 0.1 * s, True, True, mu_hat_of_t(t))
+        ctl.step(1e-3, 0.05 * s, vx_of_t(t), 0.01 * s, 0.1 * s, 0.1 * s, True, True, mu_hat_of_t(t))
         out.append(ctl.outputs())
     return np.array(out)
 
@@ -718,12 +722,16 @@ def test_without_the_valid_gate_the_sideslip_feedback_is_weighted_by_the_std_alo
     assert fb(valid_gate=0)[0] == pytest.approx(-0.01 * g_beta)
     assert fb(valid_gate=0, beta_std_ref=0.01)[0] == pytest.approx(-0.5 * 0.01 * g_beta)
     assert fb(valid_gate=0, control_profile=0)[0] == pytest.approx(-0.01 * g_beta)
+    assert fb(beta_std_ref=0.01, control_profile=0)[0] == pytest.approx(-0.01 * g_beta)     # the std ignored too
 
 
 def test_the_published_profile_has_none_of_the_additions():
-    on = dict(deadband=0.05, beta_feedback=1, sideslip_priority=1, k_beta=20.0, friction_source=1, k_integral=2.0)
-    plain, added = (_friction_run(LqrDycController, lambda t: 0.35, control_profile=0, **values)
-                    for values in ({}, on))
+    on = dict(deadband=0.05, beta_feedback=1, sideslip_priority=1, k_beta=20.0, friction_source=1, k_integral=2.0,
+              q_beta_mu_exponent=1.0, q_gamma_mu_exponent=-1.0, beta_std_ref=1e-3)
+    off = {**{k: v for k, v in PLAIN.items() if k in on}, "beta_std_ref": 0.0}
+    speeding = lambda t: 10.0 + 8.0 * t          # noqa: E731 - a rising speed: the held friction limit would bind
+    plain, added = (_friction_run(LqrDycController, lambda t: 0.35, speeding, control_profile=0, mu=0.3, **values)
+                    for values in (off, on))
     assert np.array_equal(plain, added)
     drivable = (_friction_run(LqrDycController, lambda t: 0.35, **values) for values in ({}, on))
     assert not np.array_equal(*drivable)
@@ -734,7 +742,7 @@ def test_a_subclass_default_keeps_the_parameters_declaration():
     from sideslip.params import declared_fields
     base = dict((f.name, i) for f, i in declared_fields(YawMomentConfig))
     esc = dict((f.name, (f, i)) for f, i in declared_fields(EscConfig))
-    assert EscConfig().deadband == 0.035 and YawMomentConfig().deadband == 0.0 and LqrDycConfig().k_beta == 0.0
+    assert EscConfig().deadband == 0.035 and YawMomentConfig().deadband == 0.0 and LqrDycConfig().k_beta == 22.6
     lqr = dict((f.name, i) for f, i in declared_fields(LqrDycConfig))
     assert lqr["tau_beta"] is base["tau_beta"] and YawMomentConfig().tau_beta == EscConfig().tau_beta == 0.15
     assert esc["deadband"][1] is base["deadband"] and esc["k_beta"][1] is base["k_beta"]

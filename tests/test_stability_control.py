@@ -93,7 +93,7 @@ def test_the_evaluation_runs_the_third_party_plant_and_labels_its_rows():
     cases = control_cases(factors=(6.5,), directions=("",), seeds=1)
     off = [c for c in cases if c.plant == OFF_PLANT]
     assert {c.source.label for c in off} == {"none", "LQR / truth", "LQR / SideslipFusion",
-                                             "LQR / SideslipFusion, mu_hat", "ESC / truth"}
+                                             "LQR / SideslipFusion, fixed mu", "ESC / truth"}
     assert {c.scenario for c in off} == {f"{FMVSS_FAMILY}_a6.5", "park2018_case5"}
     assert not any(c.plant == OFF_PLANT for c in control_cases(seeds=1, off_plant=False))
     chosen = [c for c in off if c.scenario.startswith("fmvss") and c.source.label in ("none", "LQR / truth")]

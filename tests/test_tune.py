@@ -176,11 +176,13 @@ def test_control_case_sets_default_quick_plants_and_a_parameter_file(tmp_path):
             assert dict(c.params)["q_gamma"] == 2e9
         else:
             assert "q_gamma" not in dict(c.params)
-    # a row's own setting stays under the file: the friction-following rows still follow
+    # a row's own setting stays under the file: the fixed-friction rows stay fixed
     from sideslip.studies.control_eval.engines import _controller_values
     from sideslip.scenarios import get_scenario
-    road = next(c for c in tuned if c.source.label == "LQR / truth, road mu")
-    assert _controller_values(road, None, get_scenario(road.scenario))["friction_source"] == 1
+    write_param_file(tmp_path / "f.json", "LqrDycController", {"friction_source": 1})
+    following = _control_args("--quick", "--params", str(tmp_path / "f.json"))
+    fixed = next(c for c in following if c.source.label == "LQR / truth, fixed mu")
+    assert _controller_values(fixed, None, get_scenario(fixed.scenario))["friction_source"] == 0
 
 
 def test_straight_drives_and_responsiveness_are_constraints_not_objectives(tmp_path, monkeypatch):

@@ -69,8 +69,8 @@ this module turns it into the command the motors get:
   its line).  The baseline ESC's PI; the LQR adds it to its feedback when switched on.
 
 A controller may switch these off (``shaped = False``, the LQR's published profile): then the
-speed is used as it comes, the command is on above ``v_min`` and off below, ``beta_valid`` is
-ignored, no offset is learnt and only the saturation remains.
+speed is used as it comes, the command is on above ``v_min`` and off below, ``beta_valid`` and
+``beta_std`` are ignored, no offset is learnt and only the saturation remains.
 """
 from __future__ import annotations
 
@@ -293,7 +293,7 @@ class YawMomentController(SampledModel):
             vs = self.v_schedule = vx_hat
             w = 1.0 if enable and vx_hat >= cfg.v_min else 0.0
             w_beta = 1.0
-        if cfg.beta_std_ref > 0.0:
+        if self.shaped and cfg.beta_std_ref > 0.0:
             ref2 = cfg.beta_std_ref * cfg.beta_std_ref
             w_beta *= ref2 / (ref2 + beta_std * beta_std)
         v = min(max(vs, cfg.v_min), cfg.v_max)

@@ -9,16 +9,17 @@
   ``yaw_rate_source = 1``, the estimator's (``yaw_rate_hat``, offset-corrected: a gyro offset ``b``
   is otherwise a standing moment ``g_gamma b``, 90 N m on the SUV at 18 m/s for 0.6 deg/s).
 
-Additions to the paper, each off by default (eq 25 as published) and switched on by a parameter (following
-``mu_hat`` and the nonlinear parts in the drivable profile only); the tuning study searches them, and a tuned point
-ships as a parameter file, ``examples/lqr_tuned.json``:
+Additions to the paper, each switched by a parameter and acting in the drivable profile only (the published
+profile is eq 25 as printed whatever they are set to); the tuning study searches them.  The drivable profile's
+defaults are the tuning study's chosen point (:data:`TUNED`, the parameter file ``examples/lqr_tuned.json`` to three
+significant figures); each addition's off value is given with it:
 
 * the weights scheduled on the friction the design is made for:
   ``q_beta (mu / mu_ref)^p_beta`` and ``q_gamma (mu / mu_ref)^p_gamma`` (``q_beta_mu_exponent``,
-  ``q_gamma_mu_exponent``), ``mu`` being the parameter ``mu`` or, with ``friction_source = 1``, the estimate
-  ``mu_hat``: one tuning holds the yaw rate hard on a dry road and softly on snow, where a hard hold brakes the
-  rear axle's grip away (docs, "Tuning studies");
-* the sideslip feedback on the sideslip beyond its reference only (``beta_feedback = 1``): the error
+  ``q_gamma_mu_exponent``; off: 0), ``mu`` being the parameter ``mu`` or, with ``friction_source = 1``, the
+  estimate ``mu_hat``: one tuning holds the yaw rate hard on a dry road and softly on snow, where a hard hold brakes
+  the rear axle's grip away (docs, "Tuning studies");
+* the sideslip feedback on the sideslip beyond its reference only (``beta_feedback = 1``; off: 0): the error
   ``beta* - beta_hat`` is measured from the band between 0 and ``beta*`` and is 0 inside it, so the feedback never
   turns the car *into* a sideslip the model asks for (eq 25 does: while the car's sideslip is still short of the
   reference's, it asks for a moment into the turn, which on snow starts a spin); beyond the band it acts as eq 25;
@@ -28,15 +29,15 @@ ships as a parameter file, ``examples/lqr_tuned.json``:
   sign: a high ``q_beta`` makes it negative (a moment that turns a sliding car back), a low one positive (it then
   mostly cancels the yaw moment the linear tires make from a sideslip, ``(C_r l_r - C_f l_f) beta``); beyond the
   band the tires are no longer linear and a positive ``g_beta`` pushes a sliding car further into its slide;
-* sideslip first (``sideslip_priority = 1``): while the sideslip is beyond the band
+* sideslip first (``sideslip_priority = 1``; off: 0): while the sideslip is beyond the band
   between 0 and ``beta*`` (and the estimate has more than half its weight), the feedback may only turn the car
   back (a moment of the sideslip's sign), not track a yaw rate into the slide: a car sliding out of a turn on
   snow is otherwise pushed further by the yaw-rate term, which asks for the reference's yaw rate the road cannot
   give;
 * the yaw-rate dead band, the sideslip limiter (with its lead on the sideslip's rate, the beta-beta_dot phase
   plane) and the yaw-rate integral of :mod:`sideslip.control.base` (``deadband``, ``k_beta``, ``t_beta_lead``,
-  ``k_integral``), the limiter's moment and ``g_gamma k_integral int(e) dt`` added to the feedback.  The integral
-  tells a yaw rate that persists from a transient one: a linear gain that stops a spin-prone car yawing after a
+  ``k_integral``; off: 0), the limiter's moment and ``g_gamma k_integral int(e) dt`` added to the feedback.  The
+  integral tells a yaw rate that persists from a transient one: a linear gain that stops a spin-prone car yawing after a
   sine with dwell also holds back the first half-wave, where the car turns as much as asked, and with it FMVSS 126's
   lateral displacement; the integral grows only while the error lasts.
 
@@ -46,7 +47,8 @@ Two profiles (parameter ``control_profile``):
 
 * ``0``, as published: eq 24 made proper by the first-order low-pass ``tau_ff``; the command is
   switched on above ``v_min``; the sideslip feedback always on; no rate limit; none of the additions (the
-  weights at the parameter ``mu``, eq 25 as printed).
+  weights as set, unscheduled; eq 25 as printed).  The paper gives no weights and no lags: the control evaluation's
+  published row sets its own (:data:`~sideslip.studies.control_eval.PUBLISHED_VALUES`).
 * ``1``, drivable (the default): the speed schedule, fade-in, bumpless transfer, steering-offset
   learning and rate limit of :mod:`sideslip.control.base`, and no feed-forward unless asked for
   (``feedforward = 1``): then through a second-order low-pass at ``f_ff`` (noise figures in
@@ -76,7 +78,7 @@ import math
 from dataclasses import dataclass
 
 from ..constants import GRAVITY
-from ..params import param
+from ..params import param, redefault
 from ..plant import kernel
 from ..plant.clock import StepClock
 from ..signals import LQR_OUTPUTS
@@ -86,10 +88,18 @@ from .base import (BETA_RATE_TAU, STEER_OFFSET_MAX, STRAIGHT_STEER, STRAIGHT_YAW
 from .feedforward import ScheduledFeedforward, first_order_lowpass, second_order_lowpass
 from .lqr import gain_schedule
 
-__all__ = ["PUBLISHED", "DRIVABLE", "LqrDycConfig", "LqrDycController", "yaw_moment_limit"]
+__all__ = ["PUBLISHED", "DRIVABLE", "TUNED", "LqrDycConfig", "LqrDycController", "yaw_moment_limit"]
 
 PUBLISHED, DRIVABLE = 0, 1
 """Values of the ``control_profile`` parameter."""
+TUNED = {"q_beta": 2.23e8, "q_gamma": 3.34e8, "q_beta_mu_exponent": 0.257, "q_gamma_mu_exponent": -0.307,
+         "tau_beta": 0.438, "tau_gamma": 0.176, "Mz_rate_max": 5.17e4, "v_fade": 1.86, "friction_source": 1,
+         "mu_floor": 0.102, "deadband": 0.0108, "beta_feedback": 2, "k_beta": 22.6, "beta_limit_scale": 0.666,
+         "beta_limit_mu_max": 0.6, "t_beta_lead": 0.187, "k_integral": 0.813, "valid_gate": 0, "beta_std_ref": 0.02}
+"""The defaults that differ from :class:`~sideslip.control.base.YawMomentConfig`'s and from the additions' off
+values: the tuning study's chosen point (docs, "The shipped parameter file"), ``examples/lqr_tuned.json`` to three
+significant figures (the file's ``feedforward`` 0 and ``sideslip_priority`` 0 are what the defaults do; its ``f_ff``
+acts only with the feed-forward on)."""
 
 
 @dataclass(frozen=True)
@@ -99,26 +109,26 @@ class LqrDycConfig(YawMomentConfig):
     control_profile: int = param(DRIVABLE, "Dimensionless", "0: as published (feed-forward through tau_ff, on "
                                  "above v_min, no rate limit); 1: drivable (fade-in over v_fade, bumpless transfer, "
                                  "steering-offset learning, rate limit)", choices=(PUBLISHED, DRIVABLE))
-    q_beta: float = param(1.0e10, "AngleWeight", "Weight of the sideslip error in eq 26", gt=0,
-                          le=1e16)
-    q_gamma: float = param(3.0e8, "AngularVelocityWeight", "Weight of the yaw-rate error in eq 26", gt=0,
+    q_beta: float = param(TUNED["q_beta"], "AngleWeight", "Weight of the sideslip error in eq 26", gt=0, le=1e16)
+    q_gamma: float = param(TUNED["q_gamma"], "AngularVelocityWeight", "Weight of the yaw-rate error in eq 26", gt=0,
                            le=1e16)
     q_N: float = param(1.0, "TorqueWeight", "Weight of the yaw moment in eq 26", gt=0, le=1e16)
-    q_beta_mu_exponent: float = param(0.0, "Dimensionless", "Friction schedule of the sideslip weight: q_beta "
-                                      "(mu / mu_ref)^p on the design's friction mu (0: the same weight on every road)",
-                                      ge=-4, le=4)
-    q_gamma_mu_exponent: float = param(0.0, "Dimensionless", "Friction schedule of the yaw-rate weight: q_gamma "
-                                       "(mu / mu_ref)^p on the design's friction mu (0: the same weight on every "
-                                       "road)", ge=-4, le=4)
+    q_beta_mu_exponent: float = param(TUNED["q_beta_mu_exponent"], "Dimensionless", "Friction schedule of the "
+                                      "sideslip weight: q_beta (mu / mu_ref)^p on the design's friction mu (0: the "
+                                      "same weight on every road; profile 1)", ge=-4, le=4)
+    q_gamma_mu_exponent: float = param(TUNED["q_gamma_mu_exponent"], "Dimensionless", "Friction schedule of the "
+                                       "yaw-rate weight: q_gamma (mu / mu_ref)^p on the design's friction mu (0: the "
+                                       "same weight on every road; profile 1)", ge=-4, le=4)
     mu_ref: float = param(1.0, "FrictionCoefficient", "Friction at which the weights are q_beta and q_gamma",
                           ge=0.05, le=1.5)
-    beta_feedback: int = param(0, "Dimensionless", "Sideslip feedback of eq 25: 0 on the error to beta_ref (as "
-                               "published), 1 on the sideslip beyond the band between 0 and beta_ref only, 2 on the "
-                               "sideslip within the band and beyond it only where it turns the car back (profile 1)",
+    beta_feedback: int = param(TUNED["beta_feedback"], "Dimensionless", "Sideslip feedback of eq 25: 0 on the "
+                               "error to beta_ref (as published), 1 on the sideslip beyond the band between 0 and "
+                               "beta_ref only, 2 on the sideslip within the band and beyond it only where it turns the "
+                               "car back (profile 1)",
                                choices=(0, 1, 2))
-    k_integral: float = param(0.0, "InverseTime", "Yaw-rate integral added to the feedback, g_gamma k_integral "
-                              "int(e) dt, e the yaw-rate error beyond the dead band; it bleeds off at the same rate "
-                              "once e is inside it (profile 1); 0: off", ge=0, le=100)
+    k_integral: float = param(TUNED["k_integral"], "InverseTime", "Yaw-rate integral added to the feedback, "
+                              "g_gamma k_integral int(e) dt, e the yaw-rate error beyond the dead band; it bleeds "
+                              "off at the same rate once e is inside it (profile 1); 0: off", ge=0, le=100)
     sideslip_priority: int = param(0, "Dimensionless", "1: while the sideslip is beyond the band between 0 and "
                                    "beta_ref, the feedback only turns the car back (a moment of the sideslip's sign; "
                                    "profile 1); 0: off", choices=(0, 1))
@@ -127,6 +137,19 @@ class LqrDycConfig(YawMomentConfig):
     tau_ff: float = param(0.02, "Time", "Low-pass that makes the feed-forward of eq 24 proper (profile 0)", gt=0, le=1)
     f_ff: float = param(2.0, "Frequency", "Bandwidth of the feed-forward: second-order Butterworth (profile 1)",
                         ge=0.05, le=50)
+    tau_beta: float = redefault(YawMomentConfig, "tau_beta", TUNED["tau_beta"])
+    tau_gamma: float = redefault(YawMomentConfig, "tau_gamma", TUNED["tau_gamma"])
+    Mz_rate_max: float = redefault(YawMomentConfig, "Mz_rate_max", TUNED["Mz_rate_max"])
+    v_fade: float = redefault(YawMomentConfig, "v_fade", TUNED["v_fade"])
+    friction_source: int = redefault(YawMomentConfig, "friction_source", TUNED["friction_source"])
+    mu_floor: float = redefault(YawMomentConfig, "mu_floor", TUNED["mu_floor"])
+    beta_std_ref: float = redefault(YawMomentConfig, "beta_std_ref", TUNED["beta_std_ref"])
+    valid_gate: int = redefault(YawMomentConfig, "valid_gate", TUNED["valid_gate"])
+    deadband: float = redefault(YawMomentConfig, "deadband", TUNED["deadband"])
+    beta_limit_scale: float = redefault(YawMomentConfig, "beta_limit_scale", TUNED["beta_limit_scale"])
+    beta_limit_mu_max: float = redefault(YawMomentConfig, "beta_limit_mu_max", TUNED["beta_limit_mu_max"])
+    k_beta: float = redefault(YawMomentConfig, "k_beta", TUNED["k_beta"])
+    t_beta_lead: float = redefault(YawMomentConfig, "t_beta_lead", TUNED["t_beta_lead"])
     compiled: int = param(1, "Dimensionless", "Step computation: 1 compiled C where the FMU carries it for this "
                           "platform and the feed-forward is off (the same doubles, faster), 0 the pure-Python "
                           "reference", choices=(0, 1))
@@ -150,7 +173,7 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
         super().__init__(cfg, vehicle)
         self.shaped = cfg.control_profile == DRIVABLE
         if not self.shaped:             # the paper's controller: none of the nonlinear parts, no friction schedule
-            self.follows_friction, self.K_beta = False, 0.0
+            self.follows_friction, self.K_beta, self.reference.hold_limit = False, 0.0, False
         self._deadband = cfg.deadband if self.shaped else 0.0
         self._band = cfg.beta_feedback if self.shaped else 0
         self._first = self.shaped and cfg.sideslip_priority == 1
@@ -176,11 +199,11 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
             shaped=int(self.shaped), valid_gate=int(bool(cfg.valid_gate)), hold_limit=int(bool(ref.hold_limit)),
             band=self._band, first=int(self._first), clock_rounding=StepClock.RELATIVE_ROUNDING, v_min=cfg.v_min,
             v_fade=cfg.v_fade, v_max=cfg.v_max, dv=self._dv, dmz=self._dmz, Mz_max=self.Mz_max, k_offset=self._k_offset,
-            beta_std_ref=cfg.beta_std_ref, ramp_rate=self.Ts / cfg.t_transfer, a_beta=ref._a_beta,
-            a_gamma=ref._a_gamma, gravity=GRAVITY, deadband=self._deadband, k_integral=self._k_integral,
-            bleed=self._bleed, Ts=self.Ts, K_beta=self.K_beta, straight_yaw_rate=STRAIGHT_YAW_RATE,
-            straight_steer=STRAIGHT_STEER, steer_offset_max=STEER_OFFSET_MAX, t_beta_lead=cfg.t_beta_lead,
-            a_rate=self._a_rate, beta_rate_tau=BETA_RATE_TAU)).step
+            beta_std_ref=cfg.beta_std_ref if self.shaped else 0.0, ramp_rate=self.Ts / cfg.t_transfer,
+            a_beta=ref._a_beta, a_gamma=ref._a_gamma, gravity=GRAVITY, deadband=self._deadband,
+            k_integral=self._k_integral, bleed=self._bleed, Ts=self.Ts, K_beta=self.K_beta,
+            straight_yaw_rate=STRAIGHT_YAW_RATE, straight_steer=STRAIGHT_STEER, steer_offset_max=STEER_OFFSET_MAX,
+            t_beta_lead=cfg.t_beta_lead, a_rate=self._a_rate, beta_rate_tau=BETA_RATE_TAU)).step
 
     def _design(self, mu: float) -> dict:
         """The bicycle model on friction ``mu`` and its LQR gain schedule (the feed-forward stays at ``mu``)."""
@@ -189,11 +212,13 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
         return design
 
     def _gains(self, model, mu: float):
-        """The LQR gain schedule of the bicycle model ``model`` on friction ``mu``, the weights scheduled on it."""
+        """The LQR gain schedule of the bicycle model ``model`` on friction ``mu``, the weights scheduled on it (in the
+        drivable profile)."""
         cfg = self.config
         scale = mu / cfg.mu_ref
-        q_beta = cfg.q_beta * scale ** cfg.q_beta_mu_exponent if cfg.q_beta_mu_exponent else cfg.q_beta
-        q_gamma = cfg.q_gamma * scale ** cfg.q_gamma_mu_exponent if cfg.q_gamma_mu_exponent else cfg.q_gamma
+        shaped = cfg.control_profile == DRIVABLE
+        q_beta = cfg.q_beta * scale ** cfg.q_beta_mu_exponent if shaped and cfg.q_beta_mu_exponent else cfg.q_beta
+        q_gamma = cfg.q_gamma * scale ** cfg.q_gamma_mu_exponent if shaped and cfg.q_gamma_mu_exponent else cfg.q_gamma
         return gain_schedule(model, q_beta, q_gamma, cfg.q_N, cfg.v_min, cfg.v_max)
 
     def reset(self) -> None:

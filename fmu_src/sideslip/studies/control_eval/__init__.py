@@ -36,17 +36,17 @@ the default, about 6 times faster) and ``fmpy`` (the FMUs, :func:`sideslip.studi
 which agree (tests/test_stability_control.py).
 """
 from .cases import (BEST_TWO, CONDITIONS, DURATION, FMVSS_FAMILY, LAUNCH, OFF_PLANT, OFF_PLANT_SCENARIOS,
-                    OFF_PLANT_SOURCES, QUICK_FACTORS, QUICK_OFF_PLANT_FACTORS, SCENARIOS, SOURCES, WHEEL_SLIP_MAX,
-                    ControlCase, Source, control_cases,
-                    fmvss_names, scenario_mu, steer_times, with_controller_params)
+                    OFF_PLANT_SOURCES, PUBLISHED_VALUES, QUICK_FACTORS, QUICK_OFF_PLANT_FACTORS, SCENARIOS, SOURCES,
+                    WHEEL_SLIP_MAX, ControlCase, Source, control_cases, fmvss_names, scenario_mu, steer_times,
+                    with_controller_params)
 from .engines import control_evaluation, plot_example, run_control_case, simulate_control
 from .measures import control_metrics, fmvss126_metrics
 from .report import format_control_evaluation, summarise
 from .tuning import DEVELOPMENT_SET, SEARCH_SPACE, TRAINING_SET
 
 __all__ = ["CONDITIONS", "OFF_PLANT", "OFF_PLANT_SCENARIOS", "OFF_PLANT_SOURCES", "FMVSS_FAMILY", "SCENARIOS",
-           "QUICK_FACTORS", "QUICK_OFF_PLANT_FACTORS", "DURATION", "LAUNCH", "WHEEL_SLIP_MAX", "BEST_TWO", "Source",
-           "SOURCES", "ControlCase", "control_cases", "fmvss_names", "with_controller_params", "plot_example",
-           "steer_times", "scenario_mu", "fmvss126_metrics", "control_metrics", "simulate_control", "run_control_case",
-           "control_evaluation", "summarise", "format_control_evaluation", "TRAINING_SET", "DEVELOPMENT_SET",
-           "SEARCH_SPACE"]
+           "QUICK_FACTORS", "QUICK_OFF_PLANT_FACTORS", "DURATION", "LAUNCH", "WHEEL_SLIP_MAX", "BEST_TWO",
+           "PUBLISHED_VALUES", "Source", "SOURCES", "ControlCase", "control_cases", "fmvss_names",
+           "with_controller_params", "plot_example", "steer_times", "scenario_mu", "fmvss126_metrics",
+           "control_metrics", "simulate_control", "run_control_case", "control_evaluation", "summarise",
+           "format_control_evaluation", "TRAINING_SET", "DEVELOPMENT_SET", "SEARCH_SPACE"]

@@ -39,15 +39,20 @@ class Source:
 
 BEST_TWO = ("Yoon2014DualKF", "Kim2016SteeringEKF")
 """The two hardened estimators with the smallest mean sideslip error on the benchmark (docs/benchmark.md)."""
+PUBLISHED_VALUES = (("control_profile", 0), ("q_beta", 1.0e10), ("q_gamma", 3.0e8), ("tau_beta", 0.15),
+                    ("tau_gamma", 0.10))
+"""The published row's LQR: Nguyen 2012's profile with the sideslip weighted above the yaw rate, as the paper chooses
+(the text after eq 26; it prints no numbers), and reference lags of 0.15 and 0.10 s (it prints none either).  The
+drivable profile's defaults are the tuning study's and weight the yaw rate more."""
 
 SOURCES = (
     Source("none"),
-    Source("LQR published / truth", "LqrDycController", None, (("control_profile", 0),)),
+    Source("LQR published / truth", "LqrDycController", None, PUBLISHED_VALUES),
     Source("LQR / truth", "LqrDycController"),
     *(Source(f"LQR / {e}", "LqrDycController", e) for e in PAPER_METHODS),
     Source("LQR / SideslipFusion", "LqrDycController", "SideslipFusion"),
-    Source("LQR / truth, road mu", "LqrDycController", None, (("friction_source", 1),)),
-    Source("LQR / SideslipFusion, mu_hat", "LqrDycController", "SideslipFusion", (("friction_source", 1),)),
+    Source("LQR / truth, fixed mu", "LqrDycController", None, (("friction_source", 0),)),
+    Source("LQR / SideslipFusion, fixed mu", "LqrDycController", "SideslipFusion", (("friction_source", 0),)),
     Source(f"StabilityController ({BEST_TWO[0]})", "StabilityController", BEST_TWO[0]),
     Source("StabilityController (SideslipFusion)", "StabilityController", "SideslipFusion"),
     Source("ESC / truth", "BaselineEsc"),
@@ -105,7 +110,7 @@ OFF_PLANT = "commonroad3"
 identified vehicle file (the estimator benchmark's test-set car; :mod:`sideslip.studies.drives`)."""
 OFF_PLANT_SCENARIOS = ("park2018_case5",)
 """Besides FMVSS 126, what runs on :data:`OFF_PLANT`: the brake in a turn on snow."""
-OFF_PLANT_SOURCES = ("none", "LQR / truth", "LQR / SideslipFusion", "LQR / SideslipFusion, mu_hat", "ESC / truth")
+OFF_PLANT_SOURCES = ("none", "LQR / truth", "LQR / SideslipFusion", "LQR / SideslipFusion, fixed mu", "ESC / truth")
 """The rows run on :data:`OFF_PLANT` (its model is Python, many times the cost per step of the project's compiled
 one)."""
 

@@ -19,7 +19,7 @@ from ...scenarios import scenario_duration
 from ..accuracy import Case, Row, make_estimator, setup
 from ..drives import OWN, vehicle_set
 from ..jobs import map_ordered
-from .cases import DURATION, FMVSS_FAMILY, ControlCase, Source, scenario_mu, steer_times
+from .cases import DURATION, FMVSS_FAMILY, PUBLISHED_VALUES, ControlCase, Source, scenario_mu, steer_times
 from .measures import control_metrics, fmvss126_metrics
 
 
@@ -173,14 +173,13 @@ def control_evaluation(cases, engine: str = "library", fmu_dir=DEFAULT_OUT, work
 
 def plot_example(out_dir, fmu_dir=DEFAULT_OUT, scenario: str = f"{FMVSS_FAMILY}_a5.0"):
     """Write ``control_split.png``: the command split into its parts on FMVSS 126 at 5A (``sensors+mismatch``,
-    seed 0) for the LQR as published, the drivable LQR with the band-limited feed-forward and without it
-    (the default), and the baseline ESC, all on the true sideslip."""
+    seed 0) for the LQR as published (the evaluation's published row), the drivable LQR with the band-limited
+    feed-forward and without it (the default), and the baseline ESC, all on the true sideslip."""
     from pathlib import Path
 
     from ..plots import plot_command_split
 
-    rows = {"LQR as published (feed-forward tau_ff 20 ms)": Source("a", "LqrDycController", None,
-                                                                  (("control_profile", 0),)),
+    rows = {"LQR as published (feed-forward tau_ff 20 ms)": Source("a", "LqrDycController", None, PUBLISHED_VALUES),
             "LQR drivable, feed-forward on (f_ff 2 Hz)": Source("b", "LqrDycController", None, (("feedforward", 1),)),
             "LQR drivable (default: no feed-forward)": Source("c", "LqrDycController"),
             "baseline ESC": Source("d", "BaselineEsc")}
