@@ -325,3 +325,15 @@ def test_the_shipped_tuned_file_is_a_point_of_the_search_space_the_fmu_accepts()
     assert fmu == "LqrDycController" and set(values) == set(SEARCH_SPACE)
     cfg = build(LqrDycConfig, values)
     assert all(getattr(cfg, k) == v for k, v in values.items())
+
+
+def test_the_lqr_defaults_are_the_shipped_file_to_three_significant_figures():
+    from pathlib import Path
+    from sideslip.control.dyc import LqrDycConfig
+    _, values = read_param_file(Path(__file__).resolve().parents[1] / "examples" / "lqr_tuned.json")
+    cfg = LqrDycConfig()
+    for name, value in values.items():
+        if name == "feedforward":           # 0 and the default 2 are both off in the drivable profile
+            assert value != 1 and cfg.feedforward != 1
+        elif name != "f_ff":                # the feed-forward's bandwidth acts only with it on
+            assert getattr(cfg, name) == float(f"{value:.3g}"), name
