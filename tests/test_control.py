@@ -742,7 +742,7 @@ def test_a_subclass_default_keeps_the_parameters_declaration():
     from sideslip.params import declared_fields
     base = dict((f.name, i) for f, i in declared_fields(YawMomentConfig))
     esc = dict((f.name, (f, i)) for f, i in declared_fields(EscConfig))
-    assert EscConfig().deadband == 0.035 and YawMomentConfig().deadband == 0.0 and LqrDycConfig().k_beta == 22.6
+    assert EscConfig().deadband == 0.035 and YawMomentConfig().deadband == 0.0 and LqrDycConfig().k_beta == 19.8
     lqr = dict((f.name, i) for f, i in declared_fields(LqrDycConfig))
     assert lqr["tau_beta"] is base["tau_beta"] and YawMomentConfig().tau_beta == EscConfig().tau_beta == 0.15
     assert esc["deadband"][1] is base["deadband"] and esc["k_beta"][1] is base["k_beta"]

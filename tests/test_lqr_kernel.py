@@ -60,7 +60,8 @@ LOOPS = [
      lambda a: np.ptp(a["controller.Mz_cmd"]) > 10.0),
     ("park2018_case3", "sensors+mismatch", "LQR / truth", (("Ts_control", 0.0005), ("beta_feedback", 2)),
      lambda a: np.ptp(a["controller.Mz_cmd"]) > 1.0),
-    ("park2018_case3", "sensors", "LQR / truth", (("Ts_control", 0.01), ("yaw_rate_source", 0), ("valid_gate", 0)),
+    ("park2018_case3", "sensors", "LQR / truth", (("Ts_control", 0.01), ("yaw_rate_source", 0), ("valid_gate", 0),
+                                                  ("deadband", 0.005)),                 # a command on the circle
      lambda a: np.ptp(a["controller.Mz_cmd"]) > 1.0),
     ("control_tune_bit_sonata_snow_spin", "sensors+mismatch", "LQR / SideslipFusion", TUNED,    # limiter ahead
      lambda a: dict(TUNED)["t_beta_lead"] > 0.0 and np.max(np.abs(a["controller.Mz_fb"])) > 1000.0),

@@ -299,7 +299,7 @@ for _v, _dur in ((40, 300.0), (80, 185.0)):
         _dur, road_mu="1.0", sensors=_KIM_SENSORS, notes=_KIM_NOTES))
 
 # ------------------------------------------------------------------------------------------------
-# FMVSS 126 sine with dwell (49 CFR 571.126 S7.7): the SUV and the Sonata on mu 0.5 and 0.8
+# FMVSS 126 sine with dwell (49 CFR 571.126 S7.7): four cars on mu 0.5 and 0.8
 # ------------------------------------------------------------------------------------------------
 _FMVSS_NOTE = ("FMVSS 126: 80 km/h, throttle released at the beginning of steer; A is the handwheel angle for "
                "0.3 g in the slowly increasing steer test at 80 km/h on the same surface (computed with the "
@@ -313,7 +313,16 @@ _FMVSS_CARS = {"suv": ("pi2011_suv", "SUV", _FMVSS_NOTE),
                    _FMVSS_NOTE[0], "The park2018_sonata (1819 kg) loses yaw stability uncontrolled at lower "
                    "amplitudes than the SUV: on mu 0.5 from 1.5A and on mu 0.8 from 3A (on the Magic Formula tires of "
                    "sensors+mismatch from 2A and 3.5A). The LQR's tuning study trains and chooses on some of these "
-                   "runs; the control evaluation runs none of them."))}
+                   "runs; the control evaluation runs none of them.")),
+               "asm": ("kim2016_asm", "small car", (
+                   _FMVSS_NOTE[0], "The kim2016_asm (1418 kg) understeers and loses yaw stability uncontrolled on "
+                   "mu 0.8 from 4.5A (on the Magic Formula tires of sensors+mismatch from 4A), as the SUV does from "
+                   "5A. The LQR's tuning study trains on some of these runs; the control evaluation runs none of "
+                   "them.")),
+               "track": ("stanford_track_car", "track car", (
+                   _FMVSS_NOTE[0], "The stanford_track_car (982 kg, front-heavy) understeers and loses yaw stability "
+                   "uncontrolled on mu 0.8 from 4A (on the Magic Formula tires of sensors+mismatch from 4.5A). The "
+                   "LQR's tuning study chooses on some of these runs; the control evaluation runs none of them."))}
 """FMVSS 126 families: car key of the scenario names -> (vehicle, label, notes)."""
 _FMVSS_SENSORS = dict(seed=126, imu_rate=100.0, wheel_rate=100.0, steer_rate=100.0, gps_rate=10.0)
 _FMVSS_MU = {"05": 0.5, "08": 0.8}
@@ -491,6 +500,8 @@ _STRAIGHT_NOTES = ("A straight road under the benchmark's sensor errors: any yaw
                    "offsets through the controller.",)
 _SPIN_NOTES = ("No electronic brake-force distribution (brake_split_front 0.5): braking at 0.2 g in the turn "
                "saturates the rear axle and the car spins out uncontrolled, as in park2018_case5.",)
+_PLOUGH_NOTES = ("The car's own brake balance: braking at 0.2 g in the turn saturates the front axle first and the "
+                 "car ploughs; a controller turns it in with the motors and adds the sideslip it then holds.",)
 CONTROL_TUNING_STRAIGHT = (
     Scenario("control_tune_straight_suv", "Tuning (training): straight, 12 -> 28 m/s at 0.16 g, SUV, mu 0.8",
              "sideslip-fmu control tuning", "pi2011_suv",
@@ -507,30 +518,38 @@ for _sc in CONTROL_TUNING_STRAIGHT:
     _add(_sc)
 
 
-def _spin_out(name: str, description: str, vehicle: str, v: float, amplitude: float, rate: float, t_release: float,
-              duration: float, road_mu: str) -> Scenario:
-    """A braked spin-out of the tuning study: braking at 0.2 g in a turn from ``v`` [m/s], the handwheel at
-    ``amplitude`` [rad] (``rate`` [rad/s]) from 3 s to ``t_release`` [s], the brakes 50/50."""
+def _braked_turn(name: str, description: str, vehicle: str, v: float, amplitude: float, rate: float, t_release: float,
+                 duration: float, road_mu: str, spin: bool = True) -> Scenario:
+    """A braked turn of the tuning study: braking at 0.2 g in a turn from ``v`` [m/s], the handwheel at
+    ``amplitude`` [rad] (``rate`` [rad/s]) from 3 s to ``t_release`` [s]; with ``spin`` the brakes 50/50 (a
+    spin-out), else the car's own balance (an understeering car ploughs)."""
     return Scenario(name, description, "sideslip-fmu control tuning", vehicle,
                     _spec("brake_in_turn", v0=v, v=v, amplitude=amplitude, rate=rate, t_start=3.0, t_release=t_release,
                           decel=0.2 * GRAVITY, v_end=0.0, duration=duration), duration, road_mu=road_mu,
-                    sensors=dict(_BENCH_SENSORS), vehicle_overrides="brake_split_front=0.5", notes=_SPIN_NOTES)
+                    sensors=dict(_BENCH_SENSORS), vehicle_overrides="brake_split_front=0.5" if spin else "",
+                    notes=_SPIN_NOTES if spin else _PLOUGH_NOTES)
 
 
-CONTROL_TUNING_SPIN = (
-    _spin_out("control_tune_bit_suv_snow_spin", "Tuning (training): brake in a turn from 45 km/h on snow with a 50/50 "
-              "brake balance, SUV, mu 0.3", "pi2011_suv", 12.5, 3.0, 5.0, 5.5, 9.0, "0.3"),
-    _spin_out("control_dev_bit_asm_ice_spin", "Tuning (development): brake in a turn from 47 km/h on ice with a 50/50 "
-              "brake balance, small car, mu 0.25", "kim2016_asm", 13.0, 4.0, 5.0, 5.5, 9.0, "0.25"),
-    _spin_out("control_tune_bit_sonata_snow_spin", "Tuning (training): brake in a turn from 54 km/h on snow with a "
-              "50/50 brake balance, Sonata, mu 0.3", "park2018_sonata", 15.0, 2.6, 5.0, 5.5, 10.0, "0.3"),
-    _spin_out("control_dev_bit_sonata_snow_spin", "Tuning (development): brake in a turn from 52 km/h on snow with a "
-              "50/50 brake balance, Sonata, mu 0.32", "park2018_sonata", 14.5, 2.8, 4.0, 6.0, 10.0, "0.32"),
+CONTROL_TUNING_BRAKED = (
+    _braked_turn("control_tune_bit_suv_snow_spin", "Tuning (training): brake in a turn from 45 km/h on snow with a "
+                 "50/50 brake balance, SUV, mu 0.3", "pi2011_suv", 12.5, 3.0, 5.0, 5.5, 9.0, "0.3"),
+    _braked_turn("control_dev_bit_asm_ice_spin", "Tuning (development): brake in a turn from 47 km/h on ice with a "
+                 "50/50 brake balance, small car, mu 0.25", "kim2016_asm", 13.0, 4.0, 5.0, 5.5, 9.0, "0.25"),
+    _braked_turn("control_tune_bit_sonata_snow_spin", "Tuning (training): brake in a turn from 54 km/h on snow with a "
+                 "50/50 brake balance, Sonata, mu 0.3", "park2018_sonata", 15.0, 2.6, 5.0, 5.5, 10.0, "0.3"),
+    _braked_turn("control_dev_bit_sonata_snow_spin", "Tuning (development): brake in a turn from 52 km/h on snow with "
+                 "a 50/50 brake balance, Sonata, mu 0.32", "park2018_sonata", 14.5, 2.8, 4.0, 6.0, 10.0, "0.32"),
+    _braked_turn("control_tune_bit_asm_snow_plough", "Tuning (training): brake in a turn from 50 km/h on snow, the "
+                 "car's brake balance, small car, mu 0.3", "kim2016_asm", 14.0, 3.5, 5.0, 5.5, 9.0, "0.3", spin=False),
+    _braked_turn("control_dev_bit_track_snow_plough", "Tuning (development): brake in a turn from 48 km/h on snow, "
+                 "the car's brake balance, track car, mu 0.28", "stanford_track_car", 13.3, 3.2, 5.0, 5.0, 9.0, "0.28",
+                 spin=False),
 )
-"""Spin-outs of the LQR's tuning study: braking in a turn on a low-friction road with the rear brakes saturating
-(no electronic brake-force distribution), on other cars than the control evaluation's ``park2018_case5`` or, on its
-Sonata, at other speeds, steering, steering times and roads."""
-for _sc in CONTROL_TUNING_SPIN:
+"""Braked turns of the LQR's tuning study on a low-friction road: spin-outs with the rear brakes saturating (no
+electronic brake-force distribution), on other cars than the control evaluation's ``park2018_case5`` or, on its
+Sonata, at other speeds, steering, steering times and roads; and two cars that plough on their own brake balance, as
+the evaluation's understeering CommonRoad cars do in ``park2018_case5``."""
+for _sc in CONTROL_TUNING_BRAKED:
     _add(_sc)
 
 FMVSS_FACTORS = tuple(1.5 + 0.5 * i for i in range(11))

@@ -92,10 +92,10 @@ __all__ = ["PUBLISHED", "DRIVABLE", "TUNED", "LqrDycConfig", "LqrDycController",
 
 PUBLISHED, DRIVABLE = 0, 1
 """Values of the ``control_profile`` parameter."""
-TUNED = {"q_beta": 2.23e8, "q_gamma": 3.34e8, "q_beta_mu_exponent": 0.257, "q_gamma_mu_exponent": -0.307,
-         "tau_beta": 0.438, "tau_gamma": 0.176, "Mz_rate_max": 5.17e4, "v_fade": 1.86, "friction_source": 1,
-         "mu_floor": 0.102, "deadband": 0.0108, "beta_feedback": 2, "k_beta": 22.6, "beta_limit_scale": 0.666,
-         "beta_limit_mu_max": 0.6, "t_beta_lead": 0.187, "k_integral": 0.813, "valid_gate": 0, "beta_std_ref": 0.02}
+TUNED = {"q_beta": 1.54e8, "q_gamma": 4.91e8, "q_beta_mu_exponent": 0.41, "q_gamma_mu_exponent": 0.0508,
+         "tau_beta": 0.426, "tau_gamma": 0.108, "Mz_rate_max": 5.94e4, "v_fade": 2.01, "friction_source": 1,
+         "mu_floor": 0.128, "deadband": 0.019, "beta_feedback": 2, "k_beta": 19.8, "beta_limit_scale": 0.675,
+         "beta_limit_mu_max": 0.586, "t_beta_lead": 0.2, "k_integral": 0.201, "valid_gate": 0, "beta_std_ref": 0.0224}
 """The defaults that differ from :class:`~sideslip.control.base.YawMomentConfig`'s and from the additions' off
 values: the tuning study's chosen point (docs, "The shipped parameter file"), ``examples/lqr_tuned.json`` to three
 significant figures (the file's ``feedforward`` 0 and ``sideslip_priority`` 0 are what the defaults do; its ``f_ff``

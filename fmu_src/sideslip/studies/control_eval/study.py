@@ -396,7 +396,8 @@ def _write_trials(trials, path: Path) -> Path:
     import csv
 
     extra = ("worst_max_abs_beta_deg", "saturated_pct", "rms_dMz_dt", "fmvss_stable", "fmvss_runs",
-             "fmvss_lateral_m", "fmvss_max_abs_beta_deg", "fmvss_worst_max_abs_beta_deg", "straight_rms_Mz_cmd")
+             "fmvss_lateral_m", "fmvss_max_abs_beta_deg", "fmvss_worst_max_abs_beta_deg", "fmvss_effort_kNms",
+             "straight_rms_Mz_cmd")
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["trial", *SEARCH_SPACE, *OBJECTIVES, *extra])

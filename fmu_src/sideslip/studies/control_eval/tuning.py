@@ -8,12 +8,15 @@ runs on the SUV at mu 0.8, seeds 0 and 1), which is the study's test set:
   SUV), the estimator benchmark's training brake in a turn on snow and J-turn on a wet road (Sonata), its sine steer
   on snow and its sine steer while the friction drops from 1.0 to 0.35 and returns (SUV, 22 s), spin-outs braking in
   a turn on snow with the rear brakes saturating (the SUV; the Sonata from 54 km/h), FMVSS 126 at 2A on mu 0.5 on a
-  car that spins from there uncontrolled (Sonata) and a straight drive (SUV, 12 -> 28 m/s);
+  car that spins from there uncontrolled (Sonata), FMVSS 126 on mu 0.8 on a car that understeers and, like the
+  test's SUV, needs a controller only at the larger amplitudes (the small car at 2A, 3.5A and 5A), a brake in a turn
+  on snow on its own brake balance (the small car ploughs) and a straight drive (SUV, 12 -> 28 m/s);
 * **development** (:data:`DEVELOPMENT_SET`, seeds :data:`DEVELOPMENT_SEEDS`): where the Pareto front's points are
   compared with the baseline ESC and one is chosen - FMVSS 126 at mu 0.5 at other amplitudes (the SUV at 3A, 4A
   and 6A), Pi 2011's sine steer on mu 0.5 at 60 km/h, the benchmark's development J-turn on ice (SUV) and friction
   drop (small car), spin-outs braking in a turn on ice (small car) and on snow (the Sonata from 52 km/h, mu 0.32),
-  FMVSS 126 at 4A and 6.5A on mu 0.8 (Sonata) and a straight drive (small car, 14 -> 26 m/s).
+  FMVSS 126 at 4A and 6.5A on mu 0.8 (Sonata), FMVSS 126 on mu 0.8 on another such car (the track car at 2.5A, 4A
+  and 5.5A), its brake in a turn on snow (it ploughs) and a straight drive (small car, 14 -> 26 m/s).
 
 The objectives (:data:`OBJECTIVES`) are means over the maneuvers.  Six constraints (:func:`constraints`), which
 the sampler is told of (Optuna's trial constraints: the samplers and the Pareto front prefer the points within
@@ -59,15 +62,19 @@ TRAINING_SET = (("fmvss126_suv_mu05_a5.0", _SINE), ("fmvss126_suv_mu05_a6.5_righ
                 ("bench_train_bit_sonata_snow", {}), ("bench_train_jturn_sonata_wet", {}),
                 ("bench_train_sine_suv_snow", {"duration": 12.0}), ("bench_train_changing_mu_suv", {"duration": 22.0}),
                 ("control_tune_bit_suv_snow_spin", {}), ("control_tune_bit_sonata_snow_spin", {}),
-                ("fmvss126_sonata_mu05_a2.0", _SINE), ("control_tune_straight_suv", {}))
-"""``(scenario, overrides)`` of the training set (126 simulated seconds per seed)."""
+                ("fmvss126_sonata_mu05_a2.0", _SINE), ("fmvss126_asm_mu08_a2.0", _SINE),
+                ("fmvss126_asm_mu08_a3.5_right", _SINE), ("fmvss126_asm_mu08_a5.0", _SINE),
+                ("control_tune_bit_asm_snow_plough", {}), ("control_tune_straight_suv", {}))
+"""``(scenario, overrides)`` of the training set (150 simulated seconds per seed)."""
 TRAINING_SEEDS = (100, 101)
 DEVELOPMENT_SET = (("fmvss126_suv_mu05_a6.0", _SINE), ("fmvss126_suv_mu05_a4.0_right", _SINE),
                    ("fmvss126_suv_mu05_a3.0_right", _SINE), ("pi2011_medium", {}), ("bench_dev_jturn_suv_ice", {}),
                    ("bench_dev_changing_mu_asm", {"duration": 14.0}), ("control_dev_bit_asm_ice_spin", {}),
                    ("control_dev_bit_sonata_snow_spin", {}), ("fmvss126_sonata_mu08_a4.0_right", _SINE),
-                   ("fmvss126_sonata_mu08_a6.5_right", _SINE), ("control_dev_straight_asm", {}))
-"""``(scenario, overrides)`` of the development set (94 simulated seconds per seed)."""
+                   ("fmvss126_sonata_mu08_a6.5_right", _SINE), ("fmvss126_track_mu08_a2.5_right", _SINE),
+                   ("fmvss126_track_mu08_a4.0", _SINE), ("fmvss126_track_mu08_a5.5_right", _SINE),
+                   ("control_dev_bit_track_snow_plough", {}), ("control_dev_straight_asm", {}))
+"""``(scenario, overrides)`` of the development set (118 simulated seconds per seed)."""
 DEVELOPMENT_SEEDS = (200, 201)
 CONDITION = "sensors+mismatch"
 STRAIGHT = ("control_tune_straight_suv", "control_dev_straight_asm")
