@@ -11,7 +11,7 @@ from fmpy.fmi1 import FMICallException
 
 from sideslip.bicycle import BicycleModel
 from sideslip.control.base import smoothstep
-from sideslip.control.dyc import LqrDycConfig, LqrDycController, yaw_moment_limit
+from sideslip.control.dyc import TUNED, LqrDycConfig, LqrDycController, yaw_moment_limit
 from sideslip.control.base import sideslip_limit
 from sideslip.control.esc import BaselineEsc, EscConfig
 from sideslip.control.feedforward import (ScheduledFeedforward, feedforward_tf, noise_gain, reference_sideslip,
@@ -33,7 +33,7 @@ SUV = BicycleModel.from_vehicle(load_vehicle("pi2011_suv"), 0.8, nominal=True)
 DEFAULT = LqrDycConfig()
 PLAIN = dict(q_beta=1e10, q_gamma=3e8, q_beta_mu_exponent=0.0, q_gamma_mu_exponent=0.0, tau_beta=0.15, tau_gamma=0.10,
              Mz_rate_max=4e4, v_fade=5.0, friction_source=0, mu_floor=0.2, deadband=0.0, beta_feedback=0, k_beta=0.0,
-             sideslip_priority=0, k_integral=0.0, valid_gate=1, beta_std_ref=0.0, beta_limit_scale=1.0,
+             sideslip_priority=0, k_integral=0.0, k_understeer=0.0, valid_gate=1, beta_std_ref=0.0, beta_limit_scale=1.0,
              beta_limit_mu_max=2.0, t_beta_lead=0.0)
 """The drivable profile with eq 25 as published and hand-set weights and lags (each addition at its off value, not
 the tuned defaults): the shaping's tests isolate one mechanism each."""
@@ -663,6 +663,26 @@ def test_lqr_dead_band_band_limited_sideslip_feedback_sideslip_first_and_limiter
         assert capped.beta_limit == pytest.approx(bound)
 
 
+def test_lqr_understeer_integral_grows_only_while_the_car_understeers():
+    """``k_understeer``: in a left turn (``gamma* > 0``) a yaw rate below the reference with the sideslip not outward of
+    the turn (``beta_hat >= 0``) is integrated beyond the dead band; outward (``beta_hat < 0``, the rear sliding out),
+    above the reference (oversteer) or the other way round, it is not, and it bleeds off at ``k_understeer``."""
+    base = dict(deadband=0.02, beta_feedback=1)             # beta_feedback 1: no sideslip term inside [beta*, 0]
+    fb0, beta_ref, gamma_ref, (g_beta, g_gamma), _ = _feedback(0.0, 0.0, **base)
+    assert beta_ref < 0.0 < gamma_ref
+    under = (0.01, gamma_ref - 0.1)
+    fb_u, *_, ctl = _feedback(*under, k_understeer=0.25, **base)
+    assert 0.12 < ctl.understeer_integral < 0.16            # as the yaw-rate integral: a little short of 0.08 x 2 s
+    assert fb_u - _feedback(*under, **base)[0] == pytest.approx(g_gamma * 0.25 * ctl.understeer_integral)
+    for beta, r in ((beta_ref, gamma_ref - 0.1), (-0.01, gamma_ref - 0.1), (0.01, gamma_ref + 0.1), (0.01, -0.05)):
+        fb_n, *_, ctl_n = _feedback(beta, r, k_understeer=0.25, **base)
+        assert ctl_n.understeer_integral == 0.0 and fb_n == _feedback(beta, r, **base)[0]
+    held = ctl.understeer_integral
+    _hold(ctl, 100, delta_m=0.02, vx_hat=20.0, beta_hat=0.01, yaw_rate_m=gamma_ref + 0.1)
+    assert ctl.understeer_integral == pytest.approx(held * math.exp(-0.1 * 0.25), rel=1e-9)
+    assert ctl.integral == 0.0                              # the yaw-rate integral stays off (k_integral 0)
+
+
 def test_the_sideslip_limiter_ahead_acts_on_the_sideslip_plus_its_rate_times_the_lead():
     """``t_beta_lead``: on a sideslip growing at a constant rate the limiter's moment is that of the sideslip ahead,
     ``beta + t_beta_lead rate``, the rate through the low-pass at BETA_RATE_TAU (its steady lag on a ramp: the rate
@@ -727,7 +747,7 @@ def test_without_the_valid_gate_the_sideslip_feedback_is_weighted_by_the_std_alo
 
 def test_the_published_profile_has_none_of_the_additions():
     on = dict(deadband=0.05, beta_feedback=1, sideslip_priority=1, k_beta=20.0, friction_source=1, k_integral=2.0,
-              q_beta_mu_exponent=1.0, q_gamma_mu_exponent=-1.0, beta_std_ref=1e-3)
+              k_understeer=5.0, q_beta_mu_exponent=1.0, q_gamma_mu_exponent=-1.0, beta_std_ref=1e-3)
     off = {**{k: v for k, v in PLAIN.items() if k in on}, "beta_std_ref": 0.0}
     speeding = lambda t: 10.0 + 8.0 * t          # noqa: E731 - a rising speed: the held friction limit would bind
     plain, added = (_friction_run(LqrDycController, lambda t: 0.35, speeding, control_profile=0, mu=0.3, **values)
@@ -742,7 +762,8 @@ def test_a_subclass_default_keeps_the_parameters_declaration():
     from sideslip.params import declared_fields
     base = dict((f.name, i) for f, i in declared_fields(YawMomentConfig))
     esc = dict((f.name, (f, i)) for f, i in declared_fields(EscConfig))
-    assert EscConfig().deadband == 0.035 and YawMomentConfig().deadband == 0.0 and LqrDycConfig().k_beta == 19.8
+    assert EscConfig().deadband == 0.035 and YawMomentConfig().deadband == 0.0
+    assert LqrDycConfig().k_beta == TUNED["k_beta"] != YawMomentConfig().k_beta
     lqr = dict((f.name, i) for f, i in declared_fields(LqrDycConfig))
     assert lqr["tau_beta"] is base["tau_beta"] and YawMomentConfig().tau_beta == EscConfig().tau_beta == 0.15
     assert esc["deadband"][1] is base["deadband"] and esc["k_beta"][1] is base["k_beta"]

@@ -65,6 +65,8 @@ LOOPS = [
      lambda a: np.ptp(a["controller.Mz_cmd"]) > 1.0),
     ("control_tune_bit_sonata_snow_spin", "sensors+mismatch", "LQR / SideslipFusion", TUNED,    # limiter ahead
      lambda a: dict(TUNED)["t_beta_lead"] > 0.0 and np.max(np.abs(a["controller.Mz_fb"])) > 1000.0),
+    ("control_tune_bit_asm_snow_plough", "sensors+mismatch", "LQR / truth", TUNED + (("k_understeer", 10.0),),
+     lambda a: np.max(a["controller.Mz_fb"]) > 1000.0),                                  # understeer integral
 ]
 
 
@@ -93,6 +95,8 @@ CONFIGS = {
     "one sample in ten steps, mu_hat": {"Ts_control": 0.01, "valid_gate": 0, "k_integral": 1.0, "friction_source": 1},
     "limiter ahead, mu_hat": {"k_beta": 30.0, "beta_limit_scale": 0.5, "t_beta_lead": 0.3, "friction_source": 1},
     "limiter's bound capped, mu_hat": {"k_beta": 30.0, "beta_limit_mu_max": 0.6, "friction_source": 1},
+    "understeer integral with the integral, saturating": {"k_understeer": 8.0, "k_integral": 0.5, "Mz_max": 800.0,
+                                                          "deadband": 0.005},
 }
 
 
@@ -125,11 +129,13 @@ def test_the_compiled_controller_gives_the_reference_doubles_on_any_inputs(param
     for u in inputs:
         for c, out in zip(controllers, outs):
             c.step(1e-3, *u)
-            out.append((*c.outputs(), c.integral, c.steer_offset, c.v_schedule, c.enabled.value,
-                        c.beta_weight.value, c.t, c._samples))
+            out.append((*c.outputs(), c.integral, c.understeer_integral, c.steer_offset, c.v_schedule,
+                        c.enabled.value, c.beta_weight.value, c.t, c._samples))
         designs.add(controllers[0].mu_design)
     ref, got = np.array(outs[0]), np.array(outs[1])
     assert np.ptp(ref[:, 0]) > 100.0
+    if params.get("k_understeer"):
+        assert np.ptp(ref[:, 6]) > 0.001                        # the understeer integral grew and bled off
     if params.get("friction_source"):
         assert len(designs) > 5                                 # the design followed mu_hat down and back
     _assert_same(np.nan_to_num(got, nan=-9.0), np.nan_to_num(ref, nan=-9.0))

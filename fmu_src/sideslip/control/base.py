@@ -322,12 +322,19 @@ class YawMomentController(SampledModel):
         """Advance the yaw-rate error's integral by one sample of ``e`` (the error beyond the dead band) [rad/s];
         returns it [rad].  Conditional integration: it does not grow while the command is saturated in the direction of
         ``e``, and it bleeds off by ``self._bleed`` per sample once ``e`` is 0 (the car back on its line)."""
-        lim = self.Mz_max
-        if e == 0.0:
-            self.integral *= self._bleed
-        elif not (self.Mz >= lim and e > 0.0 or self.Mz <= -lim and e < 0.0):
-            self.integral += e * self.Ts
+        self.integral = self._accumulate(self.integral, e, e != 0.0, self._bleed)
         return self.integral
+
+    def _accumulate(self, value: float, e: float, grow: bool, bleed: float) -> float:
+        """An integral ``value`` [rad] of the yaw-rate error advanced by one sample of ``e`` [rad/s]: ``e Ts`` added
+        while ``grow`` unless the command is saturated in the direction of ``e`` (conditional integration), times
+        ``bleed`` otherwise."""
+        if not grow:
+            return value * bleed
+        lim = self.Mz_max
+        if self.Mz >= lim and e > 0.0 or self.Mz <= -lim and e < 0.0:
+            return value
+        return value + e * self.Ts
 
     def _learn_steer_offset(self, delta: float, v: float, yaw_rate: float) -> float:
         """Update the steering offset in straight driving (module docstring); the steering less it [rad]."""

@@ -39,7 +39,16 @@ significant figures); each addition's off value is given with it:
   ``k_integral``; off: 0), the limiter's moment and ``g_gamma k_integral int(e) dt`` added to the feedback.  The
   integral tells a yaw rate that persists from a transient one: a linear gain that stops a spin-prone car yawing after a
   sine with dwell also holds back the first half-wave, where the car turns as much as asked, and with it FMVSS 126's
-  lateral displacement; the integral grows only while the error lasts.
+  lateral displacement; the integral grows only while the error lasts;
+* the understeer integral (``k_understeer``; off: 0), ``g_gamma k_understeer int(e) dt`` added to the feedback, ``e``
+  the yaw-rate error beyond the dead band, grown only while the car understeers: it turns less than the reference in
+  the reference's direction (``e gamma* > 0``, ``gamma gamma* > 0``) and its sideslip is not outward of the turn
+  (``beta_hat gamma* >= 0``: the rear is not sliding out).  It bleeds off at ``k_understeer`` otherwise, with the
+  conditional integration of ``k_integral``'s integral.  Production stability control treats understeer and
+  oversteer apart (van Zanten, SAE 2000-01-1633: a moment into the turn for an understeering car, out of it for an
+  oversteering one); a car ploughing through a braked turn on snow holds a yaw-rate error that a gain sized for a car
+  spinning out leaves standing, and the integral builds the moment into the turn that turns it in.  The sideslip
+  condition stops it as soon as the rear slides out, so that it does not turn the car into a spin.
 
 Then saturation at what the in-wheel motors can give (:mod:`sideslip.control.base`).
 
@@ -68,9 +77,9 @@ inputs (the reference makes it at its samples: the samples use the same design);
 runs.
 
 No wind-up: the controller's states are the reference lags, the feed-forward filter (driven by the steering
-alone), the transfer weights, the rate limiter and (``k_integral > 0``) the yaw-rate integral, which does not grow
-while the command is saturated in the error's direction; none is fed by the saturated output, so a saturated
-command leaves saturation as soon as the unsaturated one does (at the rate limit in profile 1).
+alone), the transfer weights, the rate limiter and (``k_integral > 0``, ``k_understeer > 0``) the yaw-rate integrals,
+which do not grow while the command is saturated in the error's direction; none is fed by the saturated output, so a
+saturated command leaves saturation as soon as the unsaturated one does (at the rate limit in profile 1).
 """
 from __future__ import annotations
 
@@ -92,10 +101,11 @@ __all__ = ["PUBLISHED", "DRIVABLE", "TUNED", "LqrDycConfig", "LqrDycController",
 
 PUBLISHED, DRIVABLE = 0, 1
 """Values of the ``control_profile`` parameter."""
-TUNED = {"q_beta": 1.54e8, "q_gamma": 4.91e8, "q_beta_mu_exponent": 0.41, "q_gamma_mu_exponent": 0.0508,
-         "tau_beta": 0.426, "tau_gamma": 0.108, "Mz_rate_max": 5.94e4, "v_fade": 2.01, "friction_source": 1,
-         "mu_floor": 0.128, "deadband": 0.019, "beta_feedback": 2, "k_beta": 19.8, "beta_limit_scale": 0.675,
-         "beta_limit_mu_max": 0.586, "t_beta_lead": 0.2, "k_integral": 0.201, "valid_gate": 0, "beta_std_ref": 0.0224}
+TUNED = {"q_beta": 2.30e8, "q_gamma": 1.16e9, "q_beta_mu_exponent": -0.0846, "q_gamma_mu_exponent": -0.219,
+         "tau_beta": 0.399, "tau_gamma": 0.0563, "Mz_rate_max": 8.79e4, "v_fade": 2.1, "friction_source": 1,
+         "mu_floor": 0.123, "deadband": 0.0254, "beta_feedback": 2, "k_beta": 19.3, "beta_limit_scale": 0.637,
+         "beta_limit_mu_max": 0.667, "t_beta_lead": 0.205, "k_integral": 0.00656, "k_understeer": 7.2, "valid_gate": 0,
+         "beta_std_ref": 0.0112}
 """The defaults that differ from :class:`~sideslip.control.base.YawMomentConfig`'s and from the additions' off
 values: the tuning study's chosen point (docs, "The shipped parameter file"), ``examples/lqr_tuned.json`` to three
 significant figures (the file's ``feedforward`` 0 and ``sideslip_priority`` 0 are what the defaults do; its ``f_ff``
@@ -129,6 +139,11 @@ class LqrDycConfig(YawMomentConfig):
     k_integral: float = param(TUNED["k_integral"], "InverseTime", "Yaw-rate integral added to the feedback, "
                               "g_gamma k_integral int(e) dt, e the yaw-rate error beyond the dead band; it bleeds "
                               "off at the same rate once e is inside it (profile 1); 0: off", ge=0, le=100)
+    k_understeer: float = param(TUNED["k_understeer"], "InverseTime", "Understeer integral added to the feedback, "
+                                "g_gamma k_understeer int(e) dt, e the yaw-rate error beyond the dead band, grown "
+                                "only while the car turns less than the reference in its direction with its sideslip "
+                                "not outward of the turn; it bleeds off at the same rate otherwise (profile 1); 0: off",
+                                ge=0, le=100)
     sideslip_priority: int = param(0, "Dimensionless", "1: while the sideslip is beyond the band between 0 and "
                                    "beta_ref, the feedback only turns the car back (a moment of the sideslip's sign; "
                                    "profile 1); 0: off", choices=(0, 1))
@@ -179,6 +194,8 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
         self._first = self.shaped and cfg.sideslip_priority == 1
         self._k_integral = cfg.k_integral if self.shaped else 0.0
         self._bleed = math.exp(-self.Ts * self._k_integral)
+        self._k_understeer = cfg.k_understeer if self.shaped else 0.0
+        self._understeer_bleed = math.exp(-self.Ts * self._k_understeer)
         self.gains = self._gains(self.model, cfg.mu)
         self.use_ff = cfg.feedforward == 1 or (cfg.feedforward == 2 and not self.shaped)
         self.ff = None
@@ -201,7 +218,8 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
             v_fade=cfg.v_fade, v_max=cfg.v_max, dv=self._dv, dmz=self._dmz, Mz_max=self.Mz_max, k_offset=self._k_offset,
             beta_std_ref=cfg.beta_std_ref if self.shaped else 0.0, ramp_rate=self.Ts / cfg.t_transfer,
             a_beta=ref._a_beta, a_gamma=ref._a_gamma, gravity=GRAVITY, deadband=self._deadband,
-            k_integral=self._k_integral, bleed=self._bleed, Ts=self.Ts, K_beta=self.K_beta,
+            k_integral=self._k_integral, bleed=self._bleed, k_understeer=self._k_understeer,
+            understeer_bleed=self._understeer_bleed, Ts=self.Ts, K_beta=self.K_beta,
             straight_yaw_rate=STRAIGHT_YAW_RATE, straight_steer=STRAIGHT_STEER, steer_offset_max=STEER_OFFSET_MAX,
             t_beta_lead=cfg.t_beta_lead, a_rate=self._a_rate, beta_rate_tau=BETA_RATE_TAU)).step
 
@@ -224,6 +242,7 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
     def reset(self) -> None:
         """Zero command, references and filter state (see :meth:`YawMomentController.reset`)."""
         super().reset()
+        self.understeer_integral = 0.0
         if self.ff is not None:
             self.ff.reset()
 
@@ -252,11 +271,12 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
             self._follow_friction(mu_hat)
         clock, ref, parts = self._clock, self.reference, self._parts
         (clock.t, clock._base, n, clock._h, done, samples, self.v_schedule, self.enabled.value, self.beta_weight.value,
-         self.steer_offset, self.integral, mz, ref.beta, ref.gamma, parts[0], parts[1], self.beta_lowpass) = native(
+         self.steer_offset, self.integral, mz, ref.beta, ref.gamma, parts[0], parts[1], self.beta_lowpass,
+         self.understeer_integral) = native(
             self, h, delta_m, vx_hat, beta_hat, yaw_rate, beta_valid, dyc_enable, beta_std, clock.t, clock._base,
             clock._n, math.nan if clock._h is None else clock._h, self._samples, 0.0, self.v_schedule,
             self.enabled.value, self.beta_weight.value, self.steer_offset, self.integral, self.Mz, ref.beta, ref.gamma,
-            parts[0], parts[1], self.beta_lowpass)
+            parts[0], parts[1], self.beta_lowpass, self.understeer_integral)
         clock._n, self._samples, self.Mz = int(n), int(done), mz
         if samples:
             self._out = (mz, ref.beta, ref.gamma, parts[0], parts[1])
@@ -282,6 +302,12 @@ class LqrDycController(kernel.CompiledStep, YawMomentController):
         n_fb = w_beta * g_beta * e_beta + g_gamma * e_gamma                                          # eq 25
         if self._k_integral:            # the yaw rate a car keeps after the steering returned: its integral
             n_fb += g_gamma * self._k_integral * self._integrate(e_gamma)
+        if self._k_understeer:          # a car that turns less than asked, not sliding out: turn it in (docstring)
+            self.understeer_integral = self._accumulate(
+                self.understeer_integral, e_gamma,
+                e_gamma * gamma_ref > 0.0 and yaw_rate * gamma_ref > 0.0 and beta_hat * gamma_ref >= 0.0,
+                self._understeer_bleed)
+            n_fb += g_gamma * self._k_understeer * self.understeer_integral
         if self.K_beta:
             n_fb += self._limiter(beta_hat, w_beta)
         if self._first and w_beta > 0.5:

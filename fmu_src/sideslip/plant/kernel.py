@@ -246,7 +246,8 @@ class LqrLaw(ctypes.Structure):
     _fields_ = [*((name, ctypes.c_int) for name in ("shaped", "valid_gate", "hold_limit", "band", "first")),
                 *((name, ctypes.c_double) for name in (
                     "clock_rounding", "v_min", "v_fade", "v_max", "dv", "dmz", "Mz_max", "k_offset", "beta_std_ref",
-                    "ramp_rate", "a_beta", "a_gamma", "gravity", "deadband", "k_integral", "bleed", "Ts", "K_beta",
+                    "ramp_rate", "a_beta", "a_gamma", "gravity", "deadband", "k_integral", "bleed", "k_understeer",
+                    "understeer_bleed", "Ts", "K_beta",
                     "straight_yaw_rate", "straight_steer", "steer_offset_max", "t_beta_lead", "a_rate",
                     "beta_rate_tau"))]
 
@@ -259,9 +260,9 @@ class LqrDesign(ctypes.Structure):
                     "l", "understeer_gradient", "l_r", "m", "l_f", "C_r", "mu", "beta_limit"))]
 
 
-LQR_IO = 25
+LQR_IO = 26
 """Values of one compiled controller step (lqr_kernel.c ``IO_*``)."""
-_LQR_IN, _LQR_OUT = struct.Struct("=25d"), struct.Struct("=17d")
+_LQR_IN, _LQR_OUT = struct.Struct("=26d"), struct.Struct("=18d")
 
 
 class LqrKernel:
@@ -305,8 +306,8 @@ class LqrKernel:
         ``beta_limit``): the step ``h`` (> 0), the inputs ``delta, vx_hat, beta_hat, yaw_rate, beta_valid, enable,
         beta_std``, the clock ``t, base, n, h_clock`` (NaN before the first step), ``samples_done``, a placeholder
         for the step's samples and the state ``v_schedule, enabled, beta_weight, steer_offset, integral, Mz,
-        beta_ref, gamma_ref, Mz_ff, Mz_fb, beta_lowpass`` in; returns the values from the clock on after the step,
-        the step's samples in the placeholder (lqr_kernel.c,
+        beta_ref, gamma_ref, Mz_ff, Mz_fb, beta_lowpass, understeer_integral`` in; returns the values from the clock on
+        after the step, the step's samples in the placeholder (lqr_kernel.c,
         :meth:`~sideslip.control.base.YawMomentController.step`)."""
         entry = self._designs.get(ctl.mu_design)
         if entry is None:

@@ -1,10 +1,10 @@
 /*
  * The LQR yaw-moment controller's samples in C: the law of the pure-Python reference
- * (sideslip/control/base.py YawMomentController.step, _sample, _learn_steer_offset, _integrate, _limiter, _command,
- * Ramp and smoothstep; sideslip/control/reference.py ReferenceModel.step; sideslip/control/schedule.py SpeedTable;
- * sideslip/control/dyc.py LqrDycController._law without the feed-forward), operation for operation, so that both
- * give the same doubles (no contraction into fused multiply-adds; nothing but arithmetic and comparisons).  Which
- * friction the design follows (friction_source = 1) stays in Python: the caller passes the design in use.
+ * (sideslip/control/base.py YawMomentController.step, _sample, _learn_steer_offset, _integrate, _accumulate, _limiter,
+ * _command, Ramp and smoothstep; sideslip/control/reference.py ReferenceModel.step; sideslip/control/schedule.py
+ * SpeedTable; sideslip/control/dyc.py LqrDycController._law without the feed-forward), operation for operation, so
+ * that both give the same doubles (no contraction into fused multiply-adds; nothing but arithmetic and comparisons).
+ * Which friction the design follows (friction_source = 1) stays in Python: the caller passes the design in use.
  *
  * Compiled into the same binary as the plant's and the driver's steps and loaded with ctypes
  * (sideslip/plant/kernel.py).
@@ -21,8 +21,8 @@
 typedef struct {
     int shaped, valid_gate, hold_limit, band, first;
     double clock_rounding, v_min, v_fade, v_max, dv, dmz, Mz_max, k_offset, beta_std_ref, ramp_rate, a_beta, a_gamma,
-           gravity, deadband, k_integral, bleed, Ts, K_beta, straight_yaw_rate, straight_steer, steer_offset_max,
-           t_beta_lead, a_rate, beta_rate_tau;
+           gravity, deadband, k_integral, bleed, k_understeer, understeer_bleed, Ts, K_beta, straight_yaw_rate,
+           straight_steer, steer_offset_max, t_beta_lead, a_rate, beta_rate_tau;
 } LqrLaw;
 
 /* What depends on the design's friction (LqrDesign): the bicycle model's steady-state gains, the reference's
@@ -38,7 +38,7 @@ typedef struct {
 enum { IO_H, IO_DELTA, IO_VX, IO_BETA_HAT, IO_YAW_RATE, IO_BETA_VALID, IO_ENABLE, IO_BETA_STD,
        IO_CLOCK_T, IO_CLOCK_BASE, IO_CLOCK_N, IO_CLOCK_H, IO_SAMPLES_DONE, IO_SAMPLES,
        IO_V_SCHEDULE, IO_ENABLED, IO_BETA_WEIGHT, IO_STEER_OFFSET, IO_INTEGRAL, IO_MZ, IO_REF_BETA, IO_REF_GAMMA,
-       IO_PART_FF, IO_PART_FB, IO_BETA_LOWPASS, IO_SIZE };
+       IO_PART_FF, IO_PART_FB, IO_BETA_LOWPASS, IO_UNDERSTEER, IO_SIZE };
 
 /* Python's max(a, b) and min(a, b): the first unless the second compares greater (less). */
 static double py_max(double a, double b) { return b > a ? b : a; }
@@ -105,6 +105,16 @@ static void gains(const LqrDesign *d, double vx, double *g_beta, double *g_gamma
     hi = lo + 2;
     *g_beta = lo[0] + w * (hi[0] - lo[0]);
     *g_gamma = lo[1] + w * (hi[1] - lo[1]);
+}
+
+/* YawMomentController._accumulate: the integral io[at] advanced by one sample of e. */
+static void accumulate(const LqrLaw *c, double *io, int at, double e, int grow, double bleed)
+{
+    double lim = c->Mz_max, mz = io[IO_MZ];
+    if (!grow)
+        io[at] *= bleed;
+    else if (!((mz >= lim && e > 0.0) || (mz <= -lim && e < 0.0)))
+        io[at] += e * c->Ts;
 }
 
 /* One sample with finite inputs: the unsaturated command (YawMomentController._sample with LqrDycController._law). */
@@ -174,12 +184,14 @@ static double sample(const LqrLaw *c, const LqrDesign *d, double *io)
     e_gamma = dead_zone(gamma_ref - yaw_rate, c->deadband);
     n_fb = w_beta * g_beta * e_beta + g_gamma * e_gamma;                              /* eq 25 */
     if (c->k_integral != 0.0) {                                                      /* _integrate */
-        double lim_mz = c->Mz_max, mz = io[IO_MZ];
-        if (e_gamma == 0.0)
-            io[IO_INTEGRAL] *= c->bleed;
-        else if (!((mz >= lim_mz && e_gamma > 0.0) || (mz <= -lim_mz && e_gamma < 0.0)))
-            io[IO_INTEGRAL] += e_gamma * c->Ts;
+        accumulate(c, io, IO_INTEGRAL, e_gamma, e_gamma != 0.0, c->bleed);
         n_fb += g_gamma * c->k_integral * io[IO_INTEGRAL];
+    }
+    if (c->k_understeer != 0.0) {                                      /* the understeer integral */
+        accumulate(c, io, IO_UNDERSTEER, e_gamma,
+                   e_gamma * gamma_ref > 0.0 && yaw_rate * gamma_ref > 0.0 && beta_hat * gamma_ref >= 0.0,
+                   c->understeer_bleed);
+        n_fb += g_gamma * c->k_understeer * io[IO_UNDERSTEER];
     }
     if (c->K_beta != 0.0) {                                                          /* _limiter */
         double b = beta_hat, over;

@@ -105,6 +105,7 @@ SEARCH_SPACE = {
     "beta_limit_mu_max": ("float", 0.3, 2.0),
     "t_beta_lead": ("float", 0.0, 0.5),
     "k_integral": ("float", 0.0, 5.0),
+    "k_understeer": ("float", 0.0, 40.0),
     "valid_gate": ("int", 0, 1),
     "beta_std_ref": ("float", 0.0, 0.1),
     "sideslip_priority": ("int", 0, 1),
@@ -114,9 +115,9 @@ weights and their friction schedule, its reference lags, the speed schedule's fa
 (follow ``mu_hat`` down to ``mu_floor``, or not), the command shaping (rate limit, band-limited
 feed-forward) and the nonlinear parts (yaw-rate dead band, sideslip feedback beyond its reference only, sideslip
 first, sideslip limiter with its bound, the friction above which the bound stops growing and its lead, yaw-rate
-integral: :mod:`sideslip.control.dyc`) and the trust in an estimator (its ``valid`` fading the sideslip feedback
-or not, the feedback weighted by its ``beta_hat_std``: no effect on the truth, so searched only with an estimator
-as the source: :func:`search_space`).  ``q_N`` stays 1: the gains depend only on the weights' ratios."""
+integral, understeer integral: :mod:`sideslip.control.dyc`) and the trust in an estimator (its ``valid`` fading the
+sideslip feedback or not, the feedback weighted by its ``beta_hat_std``: no effect on the truth, so searched only
+with an estimator as the source: :func:`search_space`).  ``q_N`` stays 1: the gains depend only on the weights' ratios."""
 TRUST = ("valid_gate", "beta_std_ref")
 """The parameters of the trust in an estimator: they act on an estimator's ``valid`` and ``beta_hat_std``, not on the
 truth."""
