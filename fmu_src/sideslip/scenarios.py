@@ -501,7 +501,9 @@ _STRAIGHT_NOTES = ("A straight road under the benchmark's sensor errors: any yaw
 _SPIN_NOTES = ("No electronic brake-force distribution (brake_split_front 0.5): braking at 0.2 g in the turn "
                "saturates the rear axle and the car spins out uncontrolled, as in park2018_case5.",)
 _PLOUGH_NOTES = ("The car's own brake balance: braking at 0.2 g in the turn saturates the front axle first and the "
-                 "car ploughs; a controller turns it in with the motors and adds the sideslip it then holds.",)
+                 "car ploughs, its sideslip small and positive (the rear axle's kinematic one); a controller turns "
+                 "it in with the motors, and the rear tires' larger share of the lateral force lowers that "
+                 "sideslip.",)
 CONTROL_TUNING_STRAIGHT = (
     Scenario("control_tune_straight_suv", "Tuning (training): straight, 12 -> 28 m/s at 0.16 g, SUV, mu 0.8",
              "sideslip-fmu control tuning", "pi2011_suv",

@@ -51,9 +51,9 @@ this module turns it into the command the motors get:
   feedback (a car sliding out of a left turn has ``beta < 0`` and needs a negative moment).  ``beta_limit = 0``
   takes ``atan(0.02 mu g)`` on the design's friction (11 deg on dry asphalt, 3.4 deg on snow), a sideslip bound
   common in the DYC literature (:func:`sideslip_limit`), times ``beta_limit_scale`` (1: the literature's bound);
-  above the friction ``beta_limit_mu_max`` the bound stops growing (never at 2, the ESC's default): the literature's
-  bound grows in proportion to the friction, and a tuning that holds a car on mu 0.5 with it lets it slide 1.6 times
-  as far on a dry road before the limiter acts.
+  above the friction ``beta_limit_mu_max`` the bound stops growing (at 2, the ESC's default, it grows on every road):
+  the literature's bound grows in proportion to the friction, and a tuning that holds a car on mu 0.5 with it lets it
+  slide 1.6 times as far on a dry road before the limiter acts.
   The baseline ESC's second part; the LQR adds it to its feedback when switched on.  With ``t_beta_lead > 0`` it
   acts on the sideslip ahead, ``beta_hat + t_beta_lead d(beta_hat)/dt`` (:meth:`YawMomentController._limiter`), the
   beta-beta_dot phase plane's measure of stability (Inagaki, Kushiro and Yamamoto 1995, "Analysis on vehicle
