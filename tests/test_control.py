@@ -333,10 +333,14 @@ def test_bad_controller_parameters_name_the_parameter():
 @pytest.mark.parametrize("name", ["Park2018Observer", "SideslipFusion"])
 def test_stability_controller_equals_estimator_then_controller(name):
     res = run_library("park2018_case2", [], duration=8.0)
-    combo = StabilityController(StabilityControllerConfig(vehicle="park2018_sonata", estimator=name, Ts=0.01))
+    # no dead band: the defaults' band keeps the controller nearly idle in this maneuver, and the equality is to hold
+    # for a command that acts
+    combo = StabilityController(StabilityControllerConfig(vehicle="park2018_sonata", estimator=name, Ts=0.01,
+                                                          deadband=0.0))
     est = ESTIMATORS[name](build(ESTIMATORS[name].config_class, {"vehicle": "park2018_sonata", "Ts": 0.01}))
-    ctl = LqrDycController(LqrDycConfig(vehicle="park2018_sonata", yaw_rate_source=1))
+    ctl = LqrDycController(LqrDycConfig(vehicle="park2018_sonata", yaw_rate_source=1, deadband=0.0))
     sig = lambda n: res[f"sensors.{n}"] if f"sensors.{n}" in res else res[f"driver.{n}"]   # noqa: E731
+    acted = 0.0
     for k in range(1, len(res["time"])):
         mz = ctl.Mz
         est.step(1e-3, *[mz if n == "Mz_cmd" else (1.0 if n == "mu" else sig(n)[k]) for n in est.input_names])
@@ -345,7 +349,8 @@ def test_stability_controller_equals_estimator_then_controller(name):
                  True, out.get("mu_hat", 0.0), est.beta_std)
         combo.step(1e-3, *[True if n == "dyc_enable" else sig(n)[k] for n in combo.input_names])
         assert combo.outputs() == ctl.outputs() + est.outputs()[:6], k
-    assert est.valid and np.abs(ctl.Mz_fb) > 0                     # both parts did something
+        acted = max(acted, abs(ctl.Mz_fb))
+    assert est.valid and acted > 10.0                               # both parts did something [N m]
 
 
 # ------------------------------------------------------------------------------ FMUs

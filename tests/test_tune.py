@@ -263,6 +263,37 @@ def test_straight_drives_and_responsiveness_are_constraints_not_objectives(tmp_p
     assert tuning.constraints({"straight_rms_Mz_cmd": 0.0}, {"fmvss_lateral_m": 1.8})["responsive"] == 0.0
 
 
+def test_the_effort_cap_weighs_each_car_and_road_alike():
+    from sideslip.studies.control_eval import tuning
+    assert tuning.fmvss_family("fmvss126_asm_mu08_a3.5_right") == "fmvss126_asm_mu08"
+    assert tuning.fmvss_family("fmvss126_suv_mu05_a5.0") == "fmvss126_suv_mu05"
+    assert tuning.fmvss_family("pi2011_high") == "pi2011_high"
+    run = {"rms_yaw_rate_error_deg_s": 2.0, "max_abs_beta_deg": 3.0, "saturated_pct": 0.0, "rms_dMz_dt": 1.0,
+           "sim_seconds": 5.0, "yaw_stable": True, "source": "truth"}
+
+    def runs(efforts):
+        return [{**run, "scenario": name, "effort_Nms": e} for name, e in zip(
+            ("fmvss126_suv_mu05_a5.0", "fmvss126_suv_mu05_a6.5_right", "fmvss126_asm_mu08_a2.0",
+             "fmvss126_asm_mu08_a5.0"), efforts)]
+
+    # the same as the ESC where it spends much, twice where it spends little: 1.14 times its mean over the runs,
+    # 1.5 times on the mean over the two cars - beyond the cap
+    esc = tuning.objectives(runs((3000.0, 3000.0, 400.0, 600.0)))
+    mine = tuning.objectives(runs((3000.0, 3000.0, 800.0, 1200.0)))
+    assert esc["fmvss_family_effort_kNms"] == pytest.approx({"fmvss126_suv_mu05": 3.0, "fmvss126_asm_mu08": 0.5})
+    assert mine["fmvss_effort_kNms"] < tuning.EFFORT_CAP * esc["fmvss_effort_kNms"]
+    assert tuning.constraints(mine, esc)["effort"] == pytest.approx(1.5 - tuning.EFFORT_CAP)
+    fair = tuning.objectives(runs((3300.0, 3300.0, 550.0, 550.0)))
+    assert tuning.constraints(fair, esc)["effort"] == pytest.approx(1.1 - tuning.EFFORT_CAP)
+    # two sources: each car and road's worst
+    fusion = [{**r, "source": "SideslipFusion", "effort_Nms": r["effort_Nms"] * (2.0 if "suv" in r["scenario"]
+                                                                                  else 0.5)}
+              for r in runs((3300.0, 3300.0, 550.0, 550.0))]
+    both = tuning.point_figures(runs((3300.0, 3300.0, 550.0, 550.0)) + fusion)
+    assert both["fmvss_family_effort_kNms"] == pytest.approx({"fmvss126_suv_mu05": 6.6, "fmvss126_asm_mu08": 0.55})
+    assert tuning.constraints(both, esc)["effort"] == pytest.approx((2.2 + 1.1) / 2 - tuning.EFFORT_CAP)
+
+
 def test_the_worst_fmvss_maneuver_and_every_source_constrain_a_point():
     from sideslip.studies.control_eval import tuning
     run = {"rms_yaw_rate_error_deg_s": 2.0, "effort_Nms": 2000.0, "saturated_pct": 0.0, "rms_dMz_dt": 1.0,

@@ -101,11 +101,11 @@ __all__ = ["PUBLISHED", "DRIVABLE", "TUNED", "LqrDycConfig", "LqrDycController",
 
 PUBLISHED, DRIVABLE = 0, 1
 """Values of the ``control_profile`` parameter."""
-TUNED = {"q_beta": 2.30e8, "q_gamma": 1.16e9, "q_beta_mu_exponent": -0.0846, "q_gamma_mu_exponent": -0.219,
-         "tau_beta": 0.399, "tau_gamma": 0.0563, "Mz_rate_max": 8.79e4, "v_fade": 2.1, "friction_source": 1,
-         "mu_floor": 0.123, "deadband": 0.0254, "beta_feedback": 2, "k_beta": 19.3, "beta_limit_scale": 0.637,
-         "beta_limit_mu_max": 0.667, "t_beta_lead": 0.205, "k_integral": 0.00656, "k_understeer": 7.2, "valid_gate": 0,
-         "beta_std_ref": 0.0112}
+TUNED = {"q_beta": 2.29e8, "q_gamma": 7.02e8, "q_beta_mu_exponent": 0.228, "q_gamma_mu_exponent": 0.208,
+         "tau_beta": 0.411, "tau_gamma": 0.0772, "Mz_rate_max": 5.55e4, "v_fade": 1.72, "friction_source": 1,
+         "mu_floor": 0.116, "deadband": 0.0241, "beta_feedback": 2, "k_beta": 18.2, "beta_limit_scale": 0.632,
+         "beta_limit_mu_max": 0.562, "t_beta_lead": 0.192, "k_integral": 0.184, "k_understeer": 8.69, "valid_gate": 0,
+         "beta_std_ref": 0.0254}
 """The defaults that differ from :class:`~sideslip.control.base.YawMomentConfig`'s and from the additions' off
 values: the tuning study's chosen point (docs, "The shipped parameter file"), ``examples/lqr_tuned.json`` to three
 significant figures (the file's ``feedforward`` 0 and ``sideslip_priority`` 0 are what the defaults do; its ``f_ff``

@@ -58,6 +58,7 @@ __all__ = ["run_study", "choose_point", "SAMPLERS", "STUDY_NAME"]
 
 STUDY_NAME = "lqr"
 SAMPLERS = ("tpe", "nsga2")
+_FAMILIES = "fmvss_family_effort_kNms"
 _OWNER = "owner"            # user attribute: host:pid of the process that asked for the point
 
 
@@ -366,7 +367,8 @@ def _choose(study, out: Path, source, development, seeds, dev_points: int, pool,
             "training": {k: chosen.user_attrs.get(k) for k in (*OBJECTIVES, "fmvss_stable", "fmvss_runs",
                                                                 "fmvss_lateral_m", "fmvss_max_abs_beta_deg",
                                                                 "fmvss_worst_max_abs_beta_deg",
-                                                                "fmvss_effort_kNms", "straight_rms_Mz_cmd")},
+                                                                "fmvss_effort_kNms", _FAMILIES,
+                                                                "straight_rms_Mz_cmd")},
             "development": scores[best], "shipped_development": scores.get("shipped"), "esc_development": esc,
             "within_effort_cap": bool(ok), "development_score": rank[best],
             "development_excess": excess[best]}
@@ -400,10 +402,10 @@ def _write_trials(trials, path: Path) -> Path:
              "straight_rms_Mz_cmd")
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(["trial", *SEARCH_SPACE, *OBJECTIVES, *extra])
+        w.writerow(["trial", *SEARCH_SPACE, *OBJECTIVES, *extra, _FAMILIES])
         for t in trials:
             w.writerow([t.number, *(t.params.get(k) for k in SEARCH_SPACE), *t.values,
-                        *(t.user_attrs.get(k) for k in extra)])
+                        *(t.user_attrs.get(k) for k in extra), json.dumps(t.user_attrs.get(_FAMILIES))])
     return path
 
 

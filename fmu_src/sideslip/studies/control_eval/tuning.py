@@ -28,8 +28,10 @@ mean's standard error (the ESC passes the criterion where the LQR is to; on mu 0
 failing it than the ESC fails; FMVSS 126's sideslip - the mean max ``|beta|`` of the FMVSS runs no larger than
 the ESC's, and on the FMVSS maneuver where the point holds the most sideslip no more than the ESC holds on its
 worst (the mean is the runs on mu 0.5's, and a point may hold less there and more on a dry road); and FMVSS 126's
-effort - the mean effort of the FMVSS runs at most :data:`EFFORT_CAP` times the ESC's (the means over every
-maneuver are dominated by the spin-outs, where the two differ by far more).
+effort - the FMVSS runs' effort at most :data:`EFFORT_CAP` times the ESC's, on the mean over the cars and roads
+of each one's ratio (the means over every maneuver are dominated by the spin-outs, where the two differ by far more;
+a mean over the FMVSS runs by those of the car and road where the ESC spends most; the test set is one car on one
+road).
 
 A study may run each point on several sources (the truth and an estimator: :func:`as_sources`), so that one
 parameter file serves the LQR fed by either: the objectives are then the means over the sources, and a point is
@@ -53,7 +55,7 @@ from .engines import run_control_case
 
 __all__ = ["TRAINING_SET", "TRAINING_SEEDS", "DEVELOPMENT_SET", "DEVELOPMENT_SEEDS", "CONDITION", "SEARCH_SPACE",
            "OBJECTIVES", "STRAIGHT", "STRAIGHT_RMS_MAX", "EFFORT_CAP", "TRUST", "as_sources", "search_space",
-           "tuning_cases", "evaluate_case", "objectives", "point_figures", "constraints", "defaults"]
+           "tuning_cases", "evaluate_case", "objectives", "point_figures", "constraints", "defaults", "fmvss_family"]
 
 _SINE = {"maneuver_t_start": 1.0, "duration": 5.0}
 """A sine with dwell from 1 s, run 5 s: the 1.75 s criterion falls inside."""
@@ -82,8 +84,8 @@ STRAIGHT = ("control_tune_straight_suv", "control_dev_straight_asm")
 STRAIGHT_RMS_MAX = 50.0
 """[N m] the most RMS ``Mz_cmd`` a point may command on a straight drive (the control evaluation's bound)."""
 EFFORT_CAP = 1.2
-"""The most effort a point may spend, in multiples of the baseline ESC's on the same runs (the FMVSS runs', a
-constraint; a set's, the choice's)."""
+"""The most effort a point may spend, in multiples of the baseline ESC's on the same runs (the FMVSS runs' on the
+mean over their cars and roads, a constraint; a set's, the choice's)."""
 
 SEARCH_SPACE = {
     "q_beta": ("log", 1e8, 1e13),
@@ -192,7 +194,9 @@ def objectives(rows: list[dict]) -> dict:
     more, 0 without one) and its standard error ``fmvss_lateral_se_m`` (from the seeds' scatter alone:
     :func:`_seed_standard_error`), ``fmvss_max_abs_beta_deg`` (the mean max ``|beta|`` of the FMVSS runs, 0
     without one), ``fmvss_worst_max_abs_beta_deg`` (the largest over the FMVSS maneuvers of the seeds' mean max
-    ``|beta|``, 0 without one), ``fmvss_effort_kNms`` (their mean effort, 0 without one), ``straight_rms_Mz_cmd``
+    ``|beta|``, 0 without one), ``fmvss_effort_kNms`` (their mean effort, 0 without one),
+    ``fmvss_family_effort_kNms`` (``{family: mean effort}`` of the FMVSS runs of each car on each road:
+    :func:`fmvss_family`), ``straight_rms_Mz_cmd``
     (the largest over the straight drives, 0 without one), ``sim_seconds`` (every run)."""
     moving = [r for r in rows if not r.get("straight")]
     mean = lambda key: float(np.mean([r[key] for r in moving]))          # noqa: E731
@@ -209,6 +213,8 @@ def objectives(rows: list[dict]) -> dict:
            "fmvss_max_abs_beta_deg": float(np.mean([r["max_abs_beta_deg"] for r in fmvss_runs] or [0.0])),
            "fmvss_worst_max_abs_beta_deg": max(_by_maneuver(fmvss_runs, "max_abs_beta_deg").values(), default=0.0),
            "fmvss_effort_kNms": float(np.mean([r["effort_Nms"] for r in fmvss_runs] or [0.0])) / 1e3,
+           "fmvss_family_effort_kNms": {k: v / 1e3 for k, v in _by_maneuver(fmvss_runs, "effort_Nms",
+                                                                              fmvss_family).items()},
            "straight_rms_Mz_cmd": float(max((r["rms_Mz_cmd"] for r in rows if r.get("straight")), default=0.0)),
            "sim_seconds": float(sum(r["sim_seconds"] for r in rows))}
     if not all(math.isfinite(out[k]) for k in (*OBJECTIVES, "straight_rms_Mz_cmd")):
@@ -218,7 +224,8 @@ def objectives(rows: list[dict]) -> dict:
 
 _WORST = {"fmvss_stable": min, "fmvss_runs": min, "fmvss_lateral_m": min, "fmvss_max_abs_beta_deg": max,
           "fmvss_worst_max_abs_beta_deg": max, "fmvss_effort_kNms": max, "straight_rms_Mz_cmd": max,
-          "worst_max_abs_beta_deg": max}
+          "worst_max_abs_beta_deg": max,
+          "fmvss_family_effort_kNms": lambda each: {k: max(e[k] for e in each) for k in each[0]}}
 """How :func:`point_figures` takes a constrained figure over the sources: the worst source's."""
 
 
@@ -233,18 +240,26 @@ def point_figures(runs: list[dict]) -> dict:
     each = [objectives(g) for g in groups.values()]
     if len(each) == 1:
         return each[0]
-    out = {k: float(np.mean([f[k] for f in each])) for k in each[0]}
-    out.update({k: take(f[k] for f in each) for k, take in _WORST.items()})
+    out = {k: float(np.mean([f[k] for f in each])) for k in each[0] if k not in _WORST}
+    out.update({k: take([f[k] for f in each]) for k, take in _WORST.items()})
     out["sim_seconds"] = float(sum(f["sim_seconds"] for f in each))
     return out
 
 
-def _by_maneuver(runs: list[dict], key: str) -> dict:
-    """The seeds' mean of ``key`` for each maneuver (a run's ``scenario``; runs without one: one maneuver)."""
+def _by_maneuver(runs: list[dict], key: str, group=lambda name: name) -> dict:
+    """The mean of ``key`` for each maneuver (a run's ``scenario``, the seeds' mean; runs without one: one maneuver)
+    or each ``group(scenario)`` of them."""
     groups: dict = {}
     for r in runs:
-        groups.setdefault(r.get("scenario"), []).append(r[key])
+        groups.setdefault(group(r.get("scenario") or ""), []).append(r[key])
     return {name: float(np.mean(v)) for name, v in groups.items()}
+
+
+def fmvss_family(scenario: str) -> str:
+    """The car and road of an FMVSS 126 run: its scenario's name less the amplitude and direction
+    (``fmvss126_suv_mu05_a6.5_right`` -> ``fmvss126_suv_mu05``); another name is its own family."""
+    head, _, tail = scenario.rpartition("_a")
+    return head if head and tail[:1].isdigit() else scenario
 
 
 def _seed_standard_error(runs: list[dict], key: str) -> float:
@@ -267,8 +282,11 @@ def constraints(figures: dict, esc: dict | None = None) -> dict:
     ``sideslip`` = the point's ``fmvss_max_abs_beta_deg`` less the ESC's [deg], ``sideslip_worst`` = the point's
     ``fmvss_worst_max_abs_beta_deg`` less the ESC's [deg] (the maneuver where the point holds the most sideslip
     against the one where the ESC does: the means hide a car and road where a point does worse than the ESC) and
-    ``effort`` = the point's ``fmvss_effort_kNms`` less :data:`EFFORT_CAP` times the ESC's [kN m s]; a figure not
-    measured (no ESC, no such run, a point of an older study) constrains nothing."""
+    ``effort`` = the mean over the FMVSS runs' families (:func:`fmvss_family`: a car on a road) of the point's
+    effort over the ESC's, less :data:`EFFORT_CAP` (each car and road weighs the same: a mean over the runs is that
+    of the car and road where the ESC spends most; a point of an older study, without the families: the point's
+    ``fmvss_effort_kNms`` less :data:`EFFORT_CAP` times the ESC's [kN m s]); a figure not measured (no ESC, no such
+    run) constrains nothing."""
     esc = esc or {}
 
     def below(key, scale=1.0):
@@ -278,4 +296,14 @@ def constraints(figures: dict, esc: dict | None = None) -> dict:
     return {"straight": figures.get("straight_rms_Mz_cmd", 0.0) - STRAIGHT_RMS_MAX,
             "responsive": below("fmvss_lateral_m") - esc.get("fmvss_lateral_se_m", 0.0),
             "stable": float(below("fmvss_stable")), "sideslip": -below("fmvss_max_abs_beta_deg"),
-            "sideslip_worst": -below("fmvss_worst_max_abs_beta_deg"), "effort": -below("fmvss_effort_kNms", EFFORT_CAP)}
+            "sideslip_worst": -below("fmvss_worst_max_abs_beta_deg"), "effort": _effort_beyond_cap(figures, esc)}
+
+
+def _effort_beyond_cap(figures: dict, esc: dict) -> float:
+    """The ``effort`` constraint of :func:`constraints`."""
+    mine, bar = figures.get("fmvss_family_effort_kNms"), esc.get("fmvss_family_effort_kNms")
+    common = [k for k in mine or {} if k in (bar or {})]
+    if common:
+        return float(np.mean([mine[k] / max(bar[k], 1e-9) for k in common])) - EFFORT_CAP
+    mine, bar = figures.get("fmvss_effort_kNms"), esc.get("fmvss_effort_kNms")
+    return mine - EFFORT_CAP * bar if mine is not None and bar is not None else 0.0
