@@ -265,9 +265,10 @@ def test_straight_drives_and_responsiveness_are_constraints_not_objectives(tmp_p
 
 def test_the_effort_cap_weighs_each_car_and_road_alike():
     from sideslip.studies.control_eval import tuning
-    assert tuning.fmvss_family("fmvss126_asm_mu08_a3.5_right") == "fmvss126_asm_mu08"
-    assert tuning.fmvss_family("fmvss126_suv_mu05_a5.0") == "fmvss126_suv_mu05"
-    assert tuning.fmvss_family("pi2011_high") == "pi2011_high"
+    from sideslip.studies.control_eval.cases import fmvss_family
+    assert fmvss_family("fmvss126_asm_mu08_a3.5_right") == "fmvss126_asm_mu08"
+    assert fmvss_family("fmvss126_suv_mu05_a5.0") == "fmvss126_suv_mu05"
+    assert fmvss_family("pi2011_high") == "pi2011_high"
     run = {"rms_yaw_rate_error_deg_s": 2.0, "max_abs_beta_deg": 3.0, "saturated_pct": 0.0, "rms_dMz_dt": 1.0,
            "sim_seconds": 5.0, "yaw_stable": True, "source": "truth"}
 

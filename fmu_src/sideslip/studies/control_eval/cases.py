@@ -105,6 +105,13 @@ def fmvss_names(factors=FMVSS_FACTORS, directions=("", "_right"), family: str = 
     return [f"{family}_a{f:.1f}{d}" for f in factors for d in directions]
 
 
+def fmvss_family(scenario: str) -> str:
+    """The car and road of an FMVSS 126 run: its scenario's name less the amplitude and direction
+    (``fmvss126_suv_mu05_a6.5_right`` -> ``fmvss126_suv_mu05``); another name is its own family."""
+    head, _, tail = scenario.rpartition("_a")
+    return head if head and tail[:1].isdigit() else scenario
+
+
 OFF_PLANT = "commonroad3"
 """The third-party plant of the evaluation: CommonRoad's VW Vanagon, known to the controllers and estimators by its
 identified vehicle file (the estimator benchmark's test-set car; :mod:`sideslip.studies.drives`)."""

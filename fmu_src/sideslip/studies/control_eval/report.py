@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cases import LAUNCH
+from .cases import LAUNCH, fmvss_family
 from .measures import MEASURES
 
 
@@ -23,7 +23,7 @@ def summarise(rows: list[dict]) -> dict:
     fam_runs: dict = {}
     for r in rows:
         if r["factor"] is not None and "pass" in r:
-            fam = r["scenario"].split("_a")[0]
+            fam = fmvss_family(r["scenario"])
             fam_runs.setdefault((r["condition"], fam, r["source"], r["seed"]), []).append(r)
         else:
             out.setdefault(r["condition"], {}).setdefault(r["scenario"], {}).setdefault(r["source"], []).append(r)

@@ -50,12 +50,12 @@ import math
 import numpy as np
 
 from ...control.dyc import LqrDycConfig
-from .cases import ControlCase, Source
+from .cases import ControlCase, Source, fmvss_family
 from .engines import run_control_case
 
 __all__ = ["TRAINING_SET", "TRAINING_SEEDS", "DEVELOPMENT_SET", "DEVELOPMENT_SEEDS", "CONDITION", "SEARCH_SPACE",
            "OBJECTIVES", "STRAIGHT", "STRAIGHT_RMS_MAX", "EFFORT_CAP", "TRUST", "as_sources", "search_space",
-           "tuning_cases", "evaluate_case", "objectives", "point_figures", "constraints", "defaults", "fmvss_family"]
+           "tuning_cases", "evaluate_case", "objectives", "point_figures", "constraints", "defaults"]
 
 _SINE = {"maneuver_t_start": 1.0, "duration": 5.0}
 """A sine with dwell from 1 s, run 5 s: the 1.75 s criterion falls inside."""
@@ -196,7 +196,7 @@ def objectives(rows: list[dict]) -> dict:
     without one), ``fmvss_worst_max_abs_beta_deg`` (the largest over the FMVSS maneuvers of the seeds' mean max
     ``|beta|``, 0 without one), ``fmvss_effort_kNms`` (their mean effort, 0 without one),
     ``fmvss_family_effort_kNms`` (``{family: mean effort}`` of the FMVSS runs of each car on each road:
-    :func:`fmvss_family`), ``straight_rms_Mz_cmd``
+    :func:`.cases.fmvss_family`), ``straight_rms_Mz_cmd``
     (the largest over the straight drives, 0 without one), ``sim_seconds`` (every run)."""
     moving = [r for r in rows if not r.get("straight")]
     mean = lambda key: float(np.mean([r[key] for r in moving]))          # noqa: E731
@@ -255,13 +255,6 @@ def _by_maneuver(runs: list[dict], key: str, group=lambda name: name) -> dict:
     return {name: float(np.mean(v)) for name, v in groups.items()}
 
 
-def fmvss_family(scenario: str) -> str:
-    """The car and road of an FMVSS 126 run: its scenario's name less the amplitude and direction
-    (``fmvss126_suv_mu05_a6.5_right`` -> ``fmvss126_suv_mu05``); another name is its own family."""
-    head, _, tail = scenario.rpartition("_a")
-    return head if head and tail[:1].isdigit() else scenario
-
-
 def _seed_standard_error(runs: list[dict], key: str) -> float:
     """The standard error of the mean of ``key`` over ``runs`` that the seeds alone make: each maneuver's (a run's
     ``scenario``) variance over its seeds, the maneuvers' means averaged (equal seeds per maneuver: the runs' mean).
@@ -282,7 +275,7 @@ def constraints(figures: dict, esc: dict | None = None) -> dict:
     ``sideslip`` = the point's ``fmvss_max_abs_beta_deg`` less the ESC's [deg], ``sideslip_worst`` = the point's
     ``fmvss_worst_max_abs_beta_deg`` less the ESC's [deg] (the maneuver where the point holds the most sideslip
     against the one where the ESC does: the means hide a car and road where a point does worse than the ESC) and
-    ``effort`` = the mean over the FMVSS runs' families (:func:`fmvss_family`: a car on a road) of the point's
+    ``effort`` = the mean over the FMVSS runs' families (:func:`.cases.fmvss_family`: a car on a road) of the point's
     effort over the ESC's, less :data:`EFFORT_CAP` (each car and road weighs the same: a mean over the runs is that
     of the car and road where the ESC spends most; a point of an older study, without the families: the point's
     ``fmvss_effort_kNms`` less :data:`EFFORT_CAP` times the ESC's [kN m s]); a figure not measured (no ESC, no such
